@@ -1,0 +1,4 @@
+//! `host-sim`: the host program of traction.
+fn main() {
+    println!("host-sim");
+}

@@ -1,0 +1,31 @@
+//! # vslam-core
+//!
+//! The core of traction, `#![no_std]`, no allocator, `f32`:
+//!
+//! - the shared vocabulary every crate speaks: [`time`] (integer nanoseconds),
+//!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
+//!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
+//!   not fused, and the counts);
+//! - the vision front end: [`image`] views.
+//!
+//! What it will not do: allocate, panic on data, read files or talk to a bus.
+//! Failure is a value: small error enums per operation.
+#![no_std]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
+
+pub mod geometry;
+pub mod image;
+pub mod reject;
+pub mod sensors;
+pub mod time;
+
+pub use reject::{Reject, SampleCounts};
+pub use time::{SampleClock, Timestamp};

@@ -1,0 +1,12 @@
+//! # traction
+//!
+//! Slip-aware metric scale for monocular VSLAM and a surface-aware ego-state
+//! EKF for ground robots, `#![no_std]` and allocation-free for Cortex-M4F/M7
+//! firmware. This root crate re-exports the member crates; see `README.md`
+//! for the crate map.
+#![no_std]
+
+pub use ego_ekf;
+pub use flow_sensor;
+pub use vslam_core;
+pub use wheel_odom;
