@@ -13,3 +13,6 @@
         clippy::indexing_slicing
     )
 )]
+
+pub mod grip;
+pub use grip::{GripError, GripParams};
