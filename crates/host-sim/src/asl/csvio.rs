@@ -1,0 +1,188 @@
+//! `data.csv` reading and writing in the ASL layout: a `#`-prefixed header
+//! line naming the columns, then one row per sample whose first column is an
+//! integer time stamp in nanoseconds. Rows must be strictly increasing in
+//! time; any malformed row is an error naming the file and the line.
+
+use crate::error::CliError;
+use std::io::Write;
+use std::path::Path;
+use vslam_core::Timestamp;
+
+/// One data row: its 1-based line number, time stamp and the other fields.
+pub struct Row {
+    /// 1-based line number in the file.
+    pub line: u64,
+    /// The first column.
+    pub t: Timestamp,
+    /// The remaining columns, trimmed.
+    pub fields: Vec<String>,
+}
+
+impl Row {
+    /// Field `i` (after the time stamp) parsed as a finite `f64`.
+    pub fn f64(&self, path: &Path, i: usize, name: &str) -> Result<f64, CliError> {
+        let s = self.field(path, i, name)?;
+        let x: f64 = s.parse().map_err(|_| {
+            CliError::line(path, self.line, format!("{name}: `{s}` is not a number"))
+        })?;
+        if !x.is_finite() {
+            return Err(CliError::line(
+                path,
+                self.line,
+                format!("{name}: `{s}` is not finite"),
+            ));
+        }
+        Ok(x)
+    }
+
+    /// Field `i` parsed as an integer of type `T`.
+    pub fn int<T: std::str::FromStr>(
+        &self,
+        path: &Path,
+        i: usize,
+        name: &str,
+    ) -> Result<T, CliError> {
+        let s = self.field(path, i, name)?;
+        s.parse().map_err(|_| {
+            CliError::line(
+                path,
+                self.line,
+                format!("{name}: `{s}` is not an integer in range"),
+            )
+        })
+    }
+
+    /// Field `i` as text.
+    pub fn field(&self, path: &Path, i: usize, name: &str) -> Result<&str, CliError> {
+        self.fields
+            .get(i)
+            .map(String::as_str)
+            .ok_or_else(|| CliError::line(path, self.line, format!("missing column {name}")))
+    }
+}
+
+/// Reads `path`, checking that every row has `columns` fields (time stamp
+/// included) and that time stamps strictly increase.
+pub fn read_rows(path: &Path, columns: usize) -> Result<Vec<Row>, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::file(path, format!("cannot read: {e}")))?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let mut rows: Vec<Row> = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            CliError::line(path, line, format!("malformed CSV: {e}"))
+        })?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let first = rec.get(0).unwrap_or("");
+        if first.starts_with('#') || (rec.len() == 1 && first.is_empty()) {
+            continue;
+        }
+        if rec.len() != columns {
+            return Err(CliError::line(
+                path,
+                line,
+                format!("expected {columns} columns, found {}", rec.len()),
+            ));
+        }
+        let ns: u64 = first.parse().map_err(|_| {
+            CliError::line(
+                path,
+                line,
+                format!("timestamp `{first}` is not an integer of nanoseconds"),
+            )
+        })?;
+        let t = Timestamp(ns);
+        if let Some(prev) = rows.last().filter(|prev| t <= prev.t) {
+            let what = if t == prev.t {
+                "duplicates"
+            } else {
+                "is earlier than"
+            };
+            return Err(CliError::line(
+                path,
+                line,
+                format!(
+                    "timestamp {ns} {what} the previous row's ({}, line {})",
+                    prev.t.0, prev.line
+                ),
+            ));
+        }
+        rows.push(Row {
+            line,
+            t,
+            fields: rec.iter().skip(1).map(str::to_owned).collect(),
+        });
+    }
+    Ok(rows)
+}
+
+/// Writes a header line and rows (each row already formatted without the newline).
+pub fn write_rows(
+    path: &Path,
+    header: &str,
+    rows: impl IntoIterator<Item = String>,
+) -> Result<(), CliError> {
+    let file = std::fs::File::create(path)
+        .map_err(|e| CliError::file(path, format!("cannot create: {e}")))?;
+    let mut w = std::io::BufWriter::new(file);
+    let io = |e: std::io::Error| CliError::file(path, format!("cannot write: {e}"));
+    writeln!(w, "{header}").map_err(io)?;
+    for r in rows {
+        writeln!(w, "{r}").map_err(io)?;
+    }
+    w.flush().map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("host-sim-csv-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("data.csv");
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn reads_rows_with_header_and_spaces() {
+        let p = write(
+            "ok",
+            "#timestamp [ns],left [ticks],right [ticks]\n100, 1,2\n200,3 ,-4\n",
+        );
+        let rows = read_rows(&p, 3).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1].t, Timestamp(200));
+        assert_eq!(rows[1].int::<i64>(&p, 1, "right").unwrap(), -4);
+        assert_eq!(rows[1].line, 3);
+    }
+
+    #[test]
+    fn errors_name_file_and_line() {
+        let p = write("order", "#t,a\n100,1\n90,2\n");
+        let e = read_rows(&p, 2).err().unwrap().to_string();
+        assert!(
+            e.contains("data.csv:3: timestamp 90 is earlier than"),
+            "{e}"
+        );
+        let p = write("dup", "#t,a\n100,1\n100,2\n");
+        let e = read_rows(&p, 2).err().unwrap().to_string();
+        assert!(e.contains("data.csv:3: timestamp 100 duplicates"), "{e}");
+        let p = write("cols", "#t,a\n100,1,5\n");
+        let e = read_rows(&p, 2).err().unwrap().to_string();
+        assert!(e.contains("data.csv:2: expected 2 columns, found 3"), "{e}");
+        let p = write("ts", "#t,a\n1.5e9,1\n");
+        let e = read_rows(&p, 2).err().unwrap().to_string();
+        assert!(e.contains("data.csv:2: timestamp `1.5e9`"), "{e}");
+        let p = write("num", "#t,a\n100,abc\n");
+        let rows = read_rows(&p, 2).unwrap();
+        let e = rows[0].f64(&p, 0, "a").unwrap_err().to_string();
+        assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
+    }
+}

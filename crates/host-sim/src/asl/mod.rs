@@ -1,0 +1,440 @@
+//! ASL/EuRoC dataset folders: `mav0/<sensor>/data.csv` + `sensor.yaml`.
+//!
+//! The exact columns (integer nanosecond time stamps; body frame x forward,
+//! y left, z up; `T_BS` with `p_B = R_BS p_S + t_BS`; Hamilton quaternions):
+//!
+//! | folder | columns |
+//! |---|---|
+//! | `imu0` | `#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]` |
+//! | `wheel0` | `#timestamp [ns],left [ticks],right [ticks]` (cumulative) |
+//! | `flow0` | `#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter` |
+//! | `cam0`, `seg0` | `#timestamp [ns],filename` (images in `data/`) |
+//! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
+//!
+//! Any sensor folder may be absent; [`Dataset::missing`] names what is.
+
+mod csvio;
+mod meta;
+mod yaml;
+
+pub use meta::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta};
+
+use crate::error::CliError;
+use std::path::{Path, PathBuf};
+use vslam_core::Timestamp;
+use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+
+/// Header of `imu0/data.csv`.
+pub const IMU_HEADER: &str = "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]";
+/// Header of `wheel0/data.csv`.
+pub const WHEEL_HEADER: &str = "#timestamp [ns],left [ticks],right [ticks]";
+/// Header of `flow0/data.csv`.
+pub const FLOW_HEADER: &str = "#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter";
+/// Header of `cam0/data.csv` and `seg0/data.csv`.
+pub const IMAGE_HEADER: &str = "#timestamp [ns],filename";
+/// Header of `state_groundtruth_estimate0/data.csv`.
+pub const GROUNDTRUTH_HEADER: &str = "#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]";
+
+/// One image of a camera or segmentation stream.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageEntry {
+    /// When the image was taken.
+    pub t: Timestamp,
+    /// Path of the image file (absolute or relative to the working directory).
+    pub path: PathBuf,
+}
+
+/// One ground-truth row (EuRoC columns).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundTruth {
+    /// Time stamp.
+    pub t: Timestamp,
+    /// Position of the body in the world, metres.
+    pub p: [f64; 3],
+    /// Attitude, Hamilton quaternion `w, x, y, z`.
+    pub q_wxyz: [f64; 4],
+    /// Velocity in the world, m/s.
+    pub v: [f64; 3],
+    /// Gyroscope bias, rad/s.
+    pub bias_gyro: [f64; 3],
+    /// Accelerometer bias, m/s^2.
+    pub bias_accel: [f64; 3],
+}
+
+/// A whole dataset in memory (images stay on disk, by path).
+#[derive(Clone, Debug, Default)]
+pub struct Dataset {
+    /// IMU stream.
+    pub imu: Option<(ImuMeta, Vec<RawImuSample>)>,
+    /// Wheel encoder stream.
+    pub wheel: Option<(WheelMeta, Vec<WheelTicks>)>,
+    /// Optical-flow stream.
+    pub flow: Option<(FlowMeta, Vec<FlowSample>)>,
+    /// Upward camera frames.
+    pub cam: Option<(CameraMeta, Vec<ImageEntry>)>,
+    /// Segmentation label maps.
+    pub seg: Option<(SegMeta, Vec<ImageEntry>)>,
+    /// Ground truth, when recorded.
+    pub groundtruth: Option<Vec<GroundTruth>>,
+}
+
+impl Dataset {
+    /// Names of the sensor folders that are absent.
+    pub fn missing(&self) -> Vec<&'static str> {
+        let mut m = Vec::new();
+        if self.imu.is_none() {
+            m.push("imu0");
+        }
+        if self.wheel.is_none() {
+            m.push("wheel0");
+        }
+        if self.flow.is_none() {
+            m.push("flow0");
+        }
+        if self.cam.is_none() {
+            m.push("cam0");
+        }
+        if self.seg.is_none() {
+            m.push("seg0");
+        }
+        if self.groundtruth.is_none() {
+            m.push("state_groundtruth_estimate0");
+        }
+        m
+    }
+}
+
+fn sensor_dir(root: &Path, name: &str) -> Option<PathBuf> {
+    let d = root.join("mav0").join(name);
+    d.is_dir().then_some(d)
+}
+
+/// Reads a dataset folder (the folder that contains `mav0/`).
+pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
+    let mav0 = root.join("mav0");
+    if !mav0.is_dir() {
+        return Err(CliError::file(
+            root,
+            "not an ASL dataset folder: no `mav0/` inside",
+        ));
+    }
+    let mut ds = Dataset::default();
+    if let Some(d) = sensor_dir(root, "imu0") {
+        let meta = ImuMeta::read(&d.join("sensor.yaml"))?;
+        let p = d.join("data.csv");
+        let mut v = Vec::new();
+        for r in csvio::read_rows(&p, 7)? {
+            let mut x = [0f32; 6];
+            for (i, slot) in x.iter_mut().enumerate() {
+                *slot = r.f64(&p, i, IMU_COLUMNS[i])? as f32;
+            }
+            v.push(RawImuSample {
+                t: r.t,
+                gyro: [x[0], x[1], x[2]],
+                accel: [x[3], x[4], x[5]],
+            });
+        }
+        ds.imu = Some((meta, v));
+    }
+    if let Some(d) = sensor_dir(root, "wheel0") {
+        let meta = WheelMeta::read(&d.join("sensor.yaml"))?;
+        let p = d.join("data.csv");
+        let mut v = Vec::new();
+        for r in csvio::read_rows(&p, 3)? {
+            v.push(WheelTicks {
+                t: r.t,
+                left: r.int(&p, 0, "left")?,
+                right: r.int(&p, 1, "right")?,
+            });
+        }
+        ds.wheel = Some((meta, v));
+    }
+    if let Some(d) = sensor_dir(root, "flow0") {
+        let meta = FlowMeta::read(&d.join("sensor.yaml"))?;
+        let p = d.join("data.csv");
+        let mut v = Vec::new();
+        for r in csvio::read_rows(&p, 5)? {
+            v.push(FlowSample {
+                t: r.t,
+                dx: r.int(&p, 0, "delta_x")?,
+                dy: r.int(&p, 1, "delta_y")?,
+                squal: r.int(&p, 2, "squal")?,
+                shutter: r.int(&p, 3, "shutter")?,
+                motion: true,
+                ..FlowSample::default()
+            });
+        }
+        ds.flow = Some((meta, v));
+    }
+    if let Some(d) = sensor_dir(root, "cam0") {
+        let meta = CameraMeta::read(&d.join("sensor.yaml"))?;
+        ds.cam = Some((meta, read_images(&d)?));
+    }
+    if let Some(d) = sensor_dir(root, "seg0") {
+        let meta = SegMeta::read(&d.join("sensor.yaml"))?;
+        ds.seg = Some((meta, read_images(&d)?));
+    }
+    if let Some(d) = sensor_dir(root, "state_groundtruth_estimate0") {
+        let p = d.join("data.csv");
+        let mut v = Vec::new();
+        for r in csvio::read_rows(&p, 17)? {
+            let mut x = [0f64; 16];
+            for (i, slot) in x.iter_mut().enumerate() {
+                *slot = r.f64(&p, i, "ground truth")?;
+            }
+            v.push(GroundTruth {
+                t: r.t,
+                p: [x[0], x[1], x[2]],
+                q_wxyz: [x[3], x[4], x[5], x[6]],
+                v: [x[7], x[8], x[9]],
+                bias_gyro: [x[10], x[11], x[12]],
+                bias_accel: [x[13], x[14], x[15]],
+            });
+        }
+        ds.groundtruth = Some(v);
+    }
+    Ok(ds)
+}
+
+const IMU_COLUMNS: [&str; 6] = [
+    "w_RS_S_x", "w_RS_S_y", "w_RS_S_z", "a_RS_S_x", "a_RS_S_y", "a_RS_S_z",
+];
+
+fn read_images(dir: &Path) -> Result<Vec<ImageEntry>, CliError> {
+    let p = dir.join("data.csv");
+    let mut v = Vec::new();
+    for r in csvio::read_rows(&p, 2)? {
+        let name = r.field(&p, 0, "filename")?;
+        let img = dir.join("data").join(name);
+        if !img.is_file() {
+            return Err(CliError::line(
+                &p,
+                r.line,
+                format!("image `{}` does not exist", img.display()),
+            ));
+        }
+        v.push(ImageEntry { t: r.t, path: img });
+    }
+    Ok(v)
+}
+
+/// Writes a dataset folder. Image entries are copied into `mav0/<cam>/data/`
+/// unless they already live there.
+pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
+    let mk = |name: &str| -> Result<PathBuf, CliError> {
+        let d = root.join("mav0").join(name);
+        std::fs::create_dir_all(&d)
+            .map_err(|e| CliError::file(&d, format!("cannot create: {e}")))?;
+        Ok(d)
+    };
+    if let Some((meta, v)) = &ds.imu {
+        let d = mk("imu0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            IMU_HEADER,
+            v.iter().map(|s| {
+                let [g0, g1, g2] = s.gyro;
+                let [a0, a1, a2] = s.accel;
+                format!("{},{g0:e},{g1:e},{g2:e},{a0:e},{a1:e},{a2:e}", s.t.0)
+            }),
+        )?;
+    }
+    if let Some((meta, v)) = &ds.wheel {
+        let d = mk("wheel0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            WHEEL_HEADER,
+            v.iter()
+                .map(|s| format!("{},{},{}", s.t.0, s.left, s.right)),
+        )?;
+    }
+    if let Some((meta, v)) = &ds.flow {
+        let d = mk("flow0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            FLOW_HEADER,
+            v.iter()
+                .map(|s| format!("{},{},{},{},{}", s.t.0, s.dx, s.dy, s.squal, s.shutter)),
+        )?;
+    }
+    if let Some((meta, v)) = &ds.cam {
+        let d = mk("cam0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        write_images(&d, v)?;
+    }
+    if let Some((meta, v)) = &ds.seg {
+        let d = mk("seg0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        write_images(&d, v)?;
+    }
+    if let Some(v) = &ds.groundtruth {
+        let d = mk("state_groundtruth_estimate0")?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            GROUNDTRUTH_HEADER,
+            v.iter().map(|g| {
+                let nums: Vec<String> =
+                    g.p.iter()
+                        .chain(&g.q_wxyz)
+                        .chain(&g.v)
+                        .chain(&g.bias_gyro)
+                        .chain(&g.bias_accel)
+                        .map(|x| format!("{x:.9}"))
+                        .collect();
+                format!("{},{}", g.t.0, nums.join(","))
+            }),
+        )?;
+    }
+    Ok(())
+}
+
+fn write_images(dir: &Path, v: &[ImageEntry]) -> Result<(), CliError> {
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data)
+        .map_err(|e| CliError::file(&data, format!("cannot create: {e}")))?;
+    let mut rows = Vec::with_capacity(v.len());
+    for e in v {
+        let name = format!("{}.png", e.t.0);
+        let dst = data.join(&name);
+        if e.path != dst {
+            std::fs::copy(&e.path, &dst)
+                .map_err(|err| CliError::file(&e.path, format!("cannot copy image: {err}")))?;
+        }
+        rows.push(format!("{},{name}", e.t.0));
+    }
+    csvio::write_rows(&dir.join("data.csv"), IMAGE_HEADER, rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("host-sim-asl-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn identity() -> [f32; 16] {
+        [
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ]
+    }
+
+    fn sample_dataset() -> Dataset {
+        let imu = (1..=3)
+            .map(|i| RawImuSample {
+                t: Timestamp(i * 4_000_000),
+                gyro: [0.01, -0.02, 0.3],
+                accel: [0.1, 0.0, 9.81],
+            })
+            .collect();
+        let wheel = (1..=2)
+            .map(|i| WheelTicks {
+                t: Timestamp(i * 20_000_000),
+                left: 10 * i as i64,
+                right: -3,
+            })
+            .collect();
+        let flow = vec![FlowSample {
+            t: Timestamp(10_000_000),
+            dx: -4,
+            dy: 7,
+            squal: 80,
+            shutter: 300,
+            motion: true,
+            ..FlowSample::default()
+        }];
+        Dataset {
+            imu: Some((
+                ImuMeta {
+                    t_bs: identity(),
+                    rate_hz: 250.0,
+                    gyroscope_noise_density: 1.7e-4,
+                    gyroscope_random_walk: 1.9e-5,
+                    accelerometer_noise_density: 2.0e-3,
+                    accelerometer_random_walk: 3.0e-3,
+                },
+                imu,
+            )),
+            wheel: Some((
+                WheelMeta {
+                    rate_hz: 50.0,
+                    ticks_per_revolution: 1024.0,
+                    wheel_radius_left: 0.035,
+                    wheel_radius_right: 0.035,
+                    wheel_base: 0.23,
+                    wheel_type: "soft_rubber".into(),
+                },
+                wheel,
+            )),
+            flow: Some((
+                FlowMeta {
+                    rate_hz: 100.0,
+                    t_bs: identity(),
+                    height: 0.03,
+                    counts_per_radian: 573.0,
+                },
+                flow,
+            )),
+            cam: None,
+            seg: None,
+            groundtruth: Some(vec![GroundTruth {
+                t: Timestamp(4_000_000),
+                p: [1.0, 2.0, 0.0],
+                q_wxyz: [1.0, 0.0, 0.0, 0.0],
+                v: [0.2, 0.0, 0.0],
+                bias_gyro: [0.0; 3],
+                bias_accel: [0.0; 3],
+            }]),
+        }
+    }
+
+    #[test]
+    fn write_then_read_round_trips() {
+        let d = tmp("rt");
+        let ds = sample_dataset();
+        write_dataset(&d, &ds).unwrap();
+        let back = read_dataset(&d).unwrap();
+        assert_eq!(back.imu, ds.imu);
+        assert_eq!(back.wheel, ds.wheel);
+        assert_eq!(back.flow, ds.flow);
+        assert_eq!(back.groundtruth, ds.groundtruth);
+        assert_eq!(back.missing(), vec!["cam0", "seg0"]);
+    }
+
+    #[test]
+    fn malformed_files_are_named_with_their_line() {
+        let d = tmp("bad");
+        write_dataset(&d, &sample_dataset()).unwrap();
+        let csv = d.join("mav0/wheel0/data.csv");
+        std::fs::write(
+            &csv,
+            format!("{WHEEL_HEADER}\n20000000,1,2\n10000000,3,4\n"),
+        )
+        .unwrap();
+        let e = read_dataset(&d).unwrap_err();
+        assert!(e.to_string().contains("wheel0/data.csv:3:"), "{e}");
+        assert_eq!(e.exit_code(), 2);
+
+        let d = tmp("bad-yaml");
+        write_dataset(&d, &sample_dataset()).unwrap();
+        let y = d.join("mav0/flow0/sensor.yaml");
+        let text = std::fs::read_to_string(&y)
+            .unwrap()
+            .replace("height: 0.03", "height: -0.03");
+        std::fs::write(&y, text).unwrap();
+        let e = read_dataset(&d).unwrap_err().to_string();
+        assert!(
+            e.contains("flow0/sensor.yaml:") && e.contains("`height`: must be positive"),
+            "{e}"
+        );
+
+        let e = read_dataset(&tmp("empty")).unwrap_err().to_string();
+        assert!(e.contains("no `mav0/`"), "{e}");
+    }
+}
