@@ -7,6 +7,7 @@ mod asl;
 mod error;
 mod matches;
 mod pngio;
+mod sim;
 mod tum;
 
 fn main() {

@@ -154,13 +154,15 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         let p = d.join("data.csv");
         let mut v = Vec::new();
         for r in csvio::read_rows(&p, 5)? {
+            let (dx, dy) = (r.int(&p, 0, "delta_x")?, r.int(&p, 1, "delta_y")?);
             v.push(FlowSample {
                 t: r.t,
-                dx: r.int(&p, 0, "delta_x")?,
-                dy: r.int(&p, 1, "delta_y")?,
+                dx,
+                dy,
                 squal: r.int(&p, 2, "squal")?,
                 shutter: r.int(&p, 3, "shutter")?,
-                motion: true,
+                // The log has no motion column: motion is counts that moved.
+                motion: dx != 0 || dy != 0,
                 ..FlowSample::default()
             });
         }

@@ -1,0 +1,7 @@
+//! The simulated world, robot and sensors of `host-sim simulate`.
+pub mod motion;
+pub mod render;
+pub mod scenario;
+pub mod script;
+pub mod sensors;
+pub mod world;

@@ -1,0 +1,255 @@
+//! Named scenarios and the generation of a whole ASL dataset from one.
+
+use super::motion::{Robot, TruthStep, integrate};
+use super::render::{Camera, Texture, render_ceiling, render_labels};
+use super::script::{Episode, EpisodeKind, Script};
+use super::sensors::{FlowModel, ImuModel, flow, imu, wheels};
+use super::world::{SEG_CLASSES, SEG_GROUND, World};
+use crate::asl::{
+    CameraMeta, Dataset, FlowMeta, GroundTruth, ImageEntry, ImuMeta, SegMeta, WheelMeta,
+};
+use crate::error::CliError;
+use crate::pngio::save_gray;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+use vslam_core::Timestamp;
+
+/// Everything that defines a simulated run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scenario {
+    /// Name on the command line.
+    pub name: &'static str,
+    /// The world.
+    pub world: World,
+    /// The drive.
+    pub script: Script,
+    /// The robot.
+    pub robot: Robot,
+    /// IMU model.
+    pub imu: ImuModel,
+    /// Flow sensor model.
+    pub flow: FlowModel,
+    /// Upward camera.
+    pub camera: Camera,
+    /// Forward segmentation camera.
+    pub segmentation: Camera,
+    /// Wheel encoder rate, Hz.
+    pub wheel_rate_hz: f64,
+}
+
+/// Names of the scenarios `simulate --scenario` knows.
+pub const SCENARIOS: [&str; 3] = ["office", "slip", "short"];
+
+impl Scenario {
+    /// The scenario called `name`.
+    pub fn by_name(name: &str) -> Option<Self> {
+        let base = Scenario {
+            name: "office",
+            world: World::office(),
+            script: Script::office(),
+            robot: Robot::vacuum(),
+            imu: ImuModel::mems(),
+            flow: FlowModel::paa5100(),
+            camera: Camera::ceiling(),
+            segmentation: Camera::forward_segmentation(),
+            wheel_rate_hz: 50.0,
+        };
+        match name {
+            "office" => Some(base),
+            // Harder slip: longer and stronger episodes of spinning wheels.
+            "slip" => {
+                let mut s = base;
+                s.name = "slip";
+                s.script.episodes = vec![
+                    Episode {
+                        start: 8.0,
+                        end: 11.0,
+                        kind: EpisodeKind::Spin(1.8),
+                    },
+                    Episode {
+                        start: 22.0,
+                        end: 26.0,
+                        kind: EpisodeKind::Spin(1.6),
+                    },
+                    Episode {
+                        start: 33.0,
+                        end: 36.0,
+                        kind: EpisodeKind::Spin(2.0),
+                    },
+                    Episode {
+                        start: 48.0,
+                        end: 51.0,
+                        kind: EpisodeKind::Stuck,
+                    },
+                ];
+                Some(s)
+            }
+            // The first 12 s of the office: quick tests.
+            "short" => {
+                let mut s = base;
+                s.name = "short";
+                s.script.duration = 12.0;
+                Some(s)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Every truth step's pose as EuRoC ground truth, at the IMU rate.
+fn groundtruth(truth: &[TruthStep], biases: &[[[f64; 3]; 2]], every: usize) -> Vec<GroundTruth> {
+    truth
+        .iter()
+        .step_by(every)
+        .zip(biases)
+        .map(|(s, b)| {
+            let (sn, cs) = (0.5 * s.yaw).sin_cos();
+            GroundTruth {
+                t: Timestamp(s.t_ns),
+                p: s.p,
+                q_wxyz: [cs, 0.0, 0.0, sn],
+                v: s.vel,
+                bias_gyro: b[0],
+                bias_accel: b[1],
+            }
+        })
+        .collect()
+}
+
+/// Simulates `sc` with `seed`, writing images under `root/mav0/{cam0,seg0}/data/`;
+/// returns the dataset (also to be written with `asl::write_dataset`) and the truth.
+pub fn generate(
+    sc: &Scenario,
+    seed: u64,
+    root: &Path,
+) -> Result<(Dataset, Vec<TruthStep>), CliError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let truth = integrate(&sc.world, &sc.script, &sc.robot);
+    let (imu_samples, biases) = imu(&truth, &sc.imu, &mut rng);
+    let wheel_samples = wheels(&truth, &sc.robot, sc.wheel_rate_hz);
+    let flow_samples = flow(&truth, &sc.flow, &mut rng);
+
+    let cam_dir = root.join("mav0/cam0/data");
+    let seg_dir = root.join("mav0/seg0/data");
+    for d in [&cam_dir, &seg_dir] {
+        std::fs::create_dir_all(d).map_err(|e| CliError::file(d, format!("cannot create: {e}")))?;
+    }
+    let tex = Texture::ceiling();
+    let mut frames = Vec::new();
+    let mut labels = Vec::new();
+    let every = |hz: f64| ((1e9 / hz) as u64 / super::motion::TRUTH_STEP_NS).max(1) as usize;
+    for s in truth.iter().step_by(every(sc.camera.rate_hz)) {
+        let path = cam_dir.join(format!("{}.png", s.t_ns));
+        save_gray(&path, &render_ceiling(&sc.world, &sc.camera, &tex, s))?;
+        frames.push(ImageEntry {
+            t: Timestamp(s.t_ns),
+            path,
+        });
+    }
+    for s in truth.iter().step_by(every(sc.segmentation.rate_hz)) {
+        let path = seg_dir.join(format!("{}.png", s.t_ns));
+        save_gray(&path, &render_labels(&sc.world, &sc.segmentation, s))?;
+        labels.push(ImageEntry {
+            t: Timestamp(s.t_ns),
+            path,
+        });
+    }
+
+    let identity = [
+        1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+    ];
+    let m = &sc.imu;
+    let to_u32 = |r: [usize; 2]| [r[0] as u32, r[1] as u32];
+    let ds = Dataset {
+        imu: Some((
+            ImuMeta {
+                t_bs: identity,
+                rate_hz: m.rate_hz,
+                gyroscope_noise_density: m.gyro_noise_density,
+                gyroscope_random_walk: m.gyro_random_walk,
+                accelerometer_noise_density: m.accel_noise_density,
+                accelerometer_random_walk: m.accel_random_walk,
+            },
+            imu_samples,
+        )),
+        wheel: Some((
+            WheelMeta {
+                rate_hz: sc.wheel_rate_hz,
+                ticks_per_revolution: sc.robot.ticks_per_revolution,
+                wheel_radius_left: sc.robot.nominal_radius,
+                wheel_radius_right: sc.robot.nominal_radius,
+                wheel_base: sc.robot.wheel_base,
+                wheel_type: "soft_rubber".into(),
+            },
+            wheel_samples,
+        )),
+        flow: Some((
+            FlowMeta {
+                rate_hz: sc.flow.rate_hz,
+                t_bs: sc.flow.t_bs_matrix(),
+                height: sc.flow.t_bs[2],
+                counts_per_radian: sc.flow.counts_per_radian,
+            },
+            flow_samples,
+        )),
+        cam: Some((
+            CameraMeta {
+                rate_hz: sc.camera.rate_hz,
+                t_bs: sc.camera.t_bs_matrix(),
+                resolution: to_u32(sc.camera.resolution),
+                intrinsics: sc.camera.intrinsics,
+                distortion_model: "radtan".into(),
+                distortion_coefficients: vec![0.0; 4],
+            },
+            frames,
+        )),
+        seg: Some((
+            SegMeta {
+                rate_hz: sc.segmentation.rate_hz,
+                t_bs: sc.segmentation.t_bs_matrix(),
+                resolution: to_u32(sc.segmentation.resolution),
+                intrinsics: sc.segmentation.intrinsics,
+                classes: SEG_CLASSES
+                    .iter()
+                    .map(|(k, v)| (*k, (*v).to_string()))
+                    .collect(),
+                ground_classes: SEG_GROUND.to_vec(),
+            },
+            labels,
+        )),
+        groundtruth: Some(groundtruth(&truth, &biases, every(m.rate_hz))),
+    };
+    Ok((ds, truth))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::asl::{read_dataset, write_dataset};
+
+    #[test]
+    fn short_scenario_round_trips_through_asl() {
+        let dir = std::env::temp_dir().join(format!("host-sim-scenario-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut sc = Scenario::by_name("short").unwrap();
+        sc.script.duration = 2.0;
+        let (ds, truth) = generate(&sc, 7, &dir).unwrap();
+        write_dataset(&dir, &ds).unwrap();
+        let back = read_dataset(&dir).unwrap();
+        assert_eq!(back.imu.as_ref().map(|x| x.1.len()), Some(501));
+        assert_eq!(back.wheel.as_ref().map(|x| x.1.len()), Some(101));
+        assert_eq!(back.cam.as_ref().map(|x| x.1.len()), Some(21));
+        assert_eq!(back.seg.as_ref().map(|x| x.1.len()), Some(5));
+        assert!(
+            back.flow == ds.flow,
+            "flow stream differs after the round trip"
+        );
+        assert!(back.missing().is_empty());
+        assert_eq!(truth.len(), 2001);
+        // Same seed, same data.
+        let (again, _) = generate(&sc, 7, &dir).unwrap();
+        assert!(again.imu == ds.imu, "same seed gave different IMU data");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

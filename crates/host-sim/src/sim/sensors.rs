@@ -1,0 +1,221 @@
+//! Sensor readings from the true motion: IMU (250 Hz), wheel encoders
+//! (50 Hz), downward optical flow (100 Hz), each with its noise model.
+
+use super::motion::{Robot, TRUTH_STEP_NS, TruthStep};
+use super::world::Surface;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use vslam_core::Timestamp;
+use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+
+/// Standard gravity, m/s^2.
+pub const GRAVITY: f64 = 9.81;
+
+fn gauss(rng: &mut ChaCha8Rng, std: f64) -> f64 {
+    Normal::new(0.0, std.max(0.0))
+        .map(|n| n.sample(rng))
+        .unwrap_or(0.0)
+}
+
+/// IMU noise model (continuous-time densities, as in an ASL `sensor.yaml`) and true biases.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuModel {
+    /// Rate, Hz (must divide 1 kHz).
+    pub rate_hz: f64,
+    /// rad/s/sqrt(Hz).
+    pub gyro_noise_density: f64,
+    /// rad/s^2/sqrt(Hz).
+    pub gyro_random_walk: f64,
+    /// m/s^2/sqrt(Hz).
+    pub accel_noise_density: f64,
+    /// m/s^3/sqrt(Hz).
+    pub accel_random_walk: f64,
+    /// Initial gyroscope bias, rad/s.
+    pub gyro_bias: [f64; 3],
+    /// Initial accelerometer bias, m/s^2.
+    pub accel_bias: [f64; 3],
+}
+
+impl ImuModel {
+    /// A consumer MEMS IMU (BMI088-class).
+    pub fn mems() -> Self {
+        ImuModel {
+            rate_hz: 250.0,
+            gyro_noise_density: 2.4e-4,
+            gyro_random_walk: 2.0e-5,
+            accel_noise_density: 1.7e-3,
+            accel_random_walk: 3.0e-4,
+            gyro_bias: [0.004, -0.003, 0.005],
+            accel_bias: [0.05, -0.04, 0.08],
+        }
+    }
+}
+
+/// Vertical vibration the floor adds to the accelerometer, m/s^2 standard deviation.
+pub fn floor_vibration(s: Option<Surface>) -> f64 {
+    match s {
+        Some(Surface::Carpet) => 0.6,
+        Some(Surface::Tile) => 0.15,
+        Some(Surface::Wood) => 0.1,
+        Some(Surface::Concrete) => 0.2,
+        None => 0.0,
+    }
+}
+
+/// IMU samples (IMU at the body origin, axes aligned with the body) and the
+/// true biases at each sample.
+pub fn imu(
+    truth: &[TruthStep],
+    m: &ImuModel,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<RawImuSample>, Vec<[[f64; 3]; 2]>) {
+    let every = ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+    let dt = every as f64 * TRUTH_STEP_NS as f64 * 1e-9;
+    let (gn, an) = (
+        m.gyro_noise_density / dt.sqrt(),
+        m.accel_noise_density / dt.sqrt(),
+    );
+    let (gw, aw) = (
+        m.gyro_random_walk * dt.sqrt(),
+        m.accel_random_walk * dt.sqrt(),
+    );
+    let (mut bg, mut ba) = (m.gyro_bias, m.accel_bias);
+    let mut out = Vec::new();
+    let mut biases = Vec::new();
+    for s in truth.iter().step_by(every) {
+        let (c, si) = (s.yaw.cos(), s.yaw.sin());
+        // Specific force in the world, rotated into the (level) body.
+        let f = [s.acc[0], s.acc[1], s.acc[2] + GRAVITY];
+        let fb = [
+            c * f[0] + si * f[1],
+            -si * f[0] + c * f[1],
+            f[2] + gauss(rng, floor_vibration(s.surface)),
+        ];
+        let gyro = [
+            bg[0] + gauss(rng, gn),
+            bg[1] + gauss(rng, gn),
+            s.w + bg[2] + gauss(rng, gn),
+        ];
+        let accel = [
+            fb[0] + ba[0] + gauss(rng, an),
+            fb[1] + ba[1] + gauss(rng, an),
+            fb[2] + ba[2] + gauss(rng, an),
+        ];
+        out.push(RawImuSample {
+            t: Timestamp(s.t_ns),
+            gyro: gyro.map(|v| v as f32),
+            accel: accel.map(|v| v as f32),
+        });
+        biases.push([bg, ba]);
+        for i in 0..3 {
+            bg[i] += gauss(rng, gw);
+            ba[i] += gauss(rng, aw);
+        }
+    }
+    (out, biases)
+}
+
+/// Cumulative encoder counts at `rate_hz` from the true wheel angles.
+pub fn wheels(truth: &[TruthStep], robot: &Robot, rate_hz: f64) -> Vec<WheelTicks> {
+    let every = ((1e9 / rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+    let per_rad = robot.ticks_per_revolution / std::f64::consts::TAU;
+    truth
+        .iter()
+        .step_by(every)
+        .map(|s| WheelTicks {
+            t: Timestamp(s.t_ns),
+            left: (s.wheel_angle[0] * per_rad).floor() as i64,
+            right: (s.wheel_angle[1] * per_rad).floor() as i64,
+        })
+        .collect()
+}
+
+/// The downward flow sensor: mounting and optics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowModel {
+    /// Report rate, Hz.
+    pub rate_hz: f64,
+    /// Sensor origin in the body, metres (z is the height above the floor).
+    pub t_bs: [f64; 3],
+    /// Counts per radian of angular flow.
+    pub counts_per_radian: f64,
+    /// Relative scale noise of each report.
+    pub scale_noise: f64,
+}
+
+impl FlowModel {
+    /// A PAA5100JE 30 mm above the floor, 10 cm ahead of the axle, looking down
+    /// (sensor x = body x, sensor y = body -y, sensor z = body -z).
+    pub fn paa5100() -> Self {
+        FlowModel {
+            rate_hz: 100.0,
+            t_bs: [0.10, 0.0, 0.03],
+            counts_per_radian: 48.8,
+            scale_noise: 0.02,
+        }
+    }
+
+    /// `T_BS` row-major.
+    pub fn t_bs_matrix(&self) -> [f32; 16] {
+        let [x, y, z] = self.t_bs.map(|v| v as f32);
+        [
+            1., 0., 0., x, 0., -1., 0., y, 0., 0., -1., z, 0., 0., 0., 1.,
+        ]
+    }
+}
+
+/// Image quality a flow sensor reports over a surface: SQUAL mean and std, shutter.
+pub fn flow_quality(s: Option<Surface>) -> (f64, f64, f64) {
+    match s {
+        Some(Surface::Wood) => (100.0, 8.0, 0x0200 as f64),
+        Some(Surface::Carpet) => (60.0, 10.0, 0x0500 as f64),
+        Some(Surface::Tile) => (35.0, 8.0, 0x0C00 as f64),
+        Some(Surface::Concrete) => (110.0, 8.0, 0x0180 as f64),
+        None => (10.0, 3.0, 0x1F80 as f64),
+    }
+}
+
+/// Flow reports: counts since the previous report (sub-count remainders are
+/// kept, as the chip does), zero counts when the report is invalid.
+pub fn flow(truth: &[TruthStep], m: &FlowModel, rng: &mut ChaCha8Rng) -> Vec<FlowSample> {
+    let every = ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+    let h = m.t_bs[2];
+    let dt = TRUTH_STEP_NS as f64 * 1e-9;
+    let mut acc = [0.0f64; 2];
+    let mut out = Vec::new();
+    for (i, s) in truth.iter().enumerate() {
+        // Sensor velocity in the body: v + w x r; then into the sensor frame.
+        let vb = [s.v - s.w * m.t_bs[1], s.w * m.t_bs[0], 0.0];
+        let vs = [vb[0], -vb[1]];
+        for k in 0..2 {
+            acc[k] += vs[k] * dt / h * m.counts_per_radian;
+        }
+        if i % every != 0 || i == 0 {
+            continue;
+        }
+        let (sq_mean, sq_std, shutter) = flow_quality(s.surface);
+        let squal = (sq_mean + gauss(rng, sq_std)).clamp(0.0, 255.0) as u8;
+        let shutter = (shutter * (1.0 + gauss(rng, 0.05))).clamp(0.0, 8191.0) as u16;
+        let mut sample = FlowSample {
+            t: Timestamp(s.t_ns),
+            squal,
+            shutter,
+            motion: true,
+            ..FlowSample::default()
+        };
+        if sample.is_valid() {
+            let k = 1.0 + gauss(rng, m.scale_noise);
+            let dx = (acc[0] * k).trunc();
+            let dy = (acc[1] * k).trunc();
+            acc[0] -= dx / k;
+            acc[1] -= dy / k;
+            sample.dx = dx.clamp(i16::MIN as f64, i16::MAX as f64) as i16;
+            sample.dy = dy.clamp(i16::MIN as f64, i16::MAX as f64) as i16;
+        } else {
+            acc = [0.0; 2];
+        }
+        sample.motion = sample.dx != 0 || sample.dy != 0;
+        out.push(sample);
+    }
+    out
+}
