@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 mod asl;
+mod chips;
 mod error;
 mod matches;
 mod pngio;
