@@ -7,8 +7,10 @@ mod asl;
 mod chips;
 mod error;
 mod matches;
+mod metrics;
 mod pngio;
 mod sim;
+mod svg;
 mod tum;
 
 fn main() {
