@@ -10,3 +10,5 @@ pub use ego_ekf;
 pub use flow_sensor;
 pub use vslam_core;
 pub use wheel_odom;
+
+pub mod reorder;
