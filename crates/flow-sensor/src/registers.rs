@@ -129,8 +129,14 @@ pub const GRAB_UPPER_DATA_MASK: u8 = 0b0011_1111;
 /// Data bits of a lower-half byte.
 pub const GRAB_LOWER_DATA_MASK: u8 = 0b0000_1100;
 
+/// SPI mode: CPOL = 1, CPHA = 1 (mode 3), MSB first (Bitcraze `SPI_MODE3`).
+pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_3;
+/// Highest SPI clock, Hz (PX4 `PixArt_PMW3901MB_Registers.hpp`: 2 MHz).
+pub const SPI_MAX_HZ: u32 = 2_000_000;
+
 /// SPI timing, nanoseconds (PMW3901MB datasheet, AC electrical
-/// specifications). Read address to data: t_SRAD.
+/// specifications; Bitcraze's driver waits a more generous 50 us around
+/// every access). Read address to data: t_SRAD.
 pub const T_SRAD_NS: u32 = 35_000;
 /// After a write, before the next write or read: max(t_SWW, t_SWR).
 pub const T_SWW_NS: u32 = 45_000;

@@ -193,3 +193,51 @@ fn errors_display() {
     let e: Error<ErrorKind> = Error::FrameTimeout { pixels: 7 };
     assert!(format!("{e}").contains('7'));
 }
+
+#[test]
+fn power_up_waits_through_the_delay_provider() {
+    use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as D};
+    // PMW3901: 5 ms after reset, 100 ms inside the table.
+    let mut spi = pmw3901_init_script().mock();
+    let mut delay = CheckedDelay::new(&[D::delay_ms(5), D::delay_ms(100)]);
+    let mut s = FlowSensor::new(spi.clone(), delay.clone(), Variant::Pmw3901);
+    s.init().unwrap();
+    spi.done();
+    delay.done();
+}
+
+#[test]
+fn paa5100_waits_through_the_delay_provider() {
+    use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as D};
+    let script = Script::new()
+        .reset_and_id()
+        .clear_motion()
+        .ws(&[
+            (0x7F, 0x00),
+            (0x55, 0x01),
+            (0x50, 0x07),
+            (0x7F, 0x0E),
+            (0x43, 0x10),
+        ])
+        .r(0x67, 0x00)
+        .w(0x48, 0x02)
+        .ws(&[
+            (0x7F, 0x00),
+            (0x51, 0x7B),
+            (0x50, 0x00),
+            (0x55, 0x00),
+            (0x7F, 0x0E),
+        ])
+        .r(0x73, 0x01)
+        .ws(PAA5100_WRITES)
+        .r(0x5B, 0xA0)
+        .r(0x4E, 0xA8)
+        .clear_motion();
+    let mut spi = script.mock();
+    // 5 ms after reset, then the table's two 10 ms waits.
+    let mut delay = CheckedDelay::new(&[D::delay_ms(5), D::delay_ms(10), D::delay_ms(10)]);
+    let mut s = FlowSensor::new(spi.clone(), delay.clone(), Variant::Paa5100je);
+    s.init().unwrap();
+    spi.done();
+    delay.done();
+}

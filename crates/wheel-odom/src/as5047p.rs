@@ -20,6 +20,11 @@
 //!    (else [`As5047pError::Parity`]), EF checked (else two more frames read
 //!    ERRFL the same way and the result is [`As5047pError::ErrorFlag`]).
 //!
+//! [`As5047p::angle_with_diagnostics`] pipelines two reads in three frames:
+//! `READ DIAAGC` (answer ignored), `READ ANGLECOM` (answer: DIAAGC), `NOP`
+//! (answer: ANGLECOM); both answers are parity and EF checked, and a CORDIC
+//! overflow makes the angle [`As5047pError::AngleInvalid`].
+//!
 //! Command words used: ANGLECOM `0xFFFF`, ANGLEUNC `0x7FFE`, MAG `0x7FFD`,
 //! DIAAGC `0xFFFC`, ERRFL `0x4001`, NOP `0x0000`.
 
@@ -117,6 +122,8 @@ pub enum As5047pError<E> {
     },
     /// The answer's error flag was set; ERRFL (read and cleared) says why.
     ErrorFlag(ErrorFlags),
+    /// DIAAGC reported a CORDIC overflow: the angle read with it is invalid.
+    AngleInvalid(Diagnostics),
 }
 
 impl<E> From<E> for As5047pError<E> {
@@ -136,6 +143,11 @@ impl<E: fmt::Debug> fmt::Display for As5047pError<E> {
                 f,
                 "AS5047P error flag: parity {}, invalid command {}, framing {}",
                 flags.parity, flags.invalid_command, flags.framing
+            ),
+            As5047pError::AngleInvalid(d) => write!(
+                f,
+                "AS5047P CORDIC overflow (field too weak {}, too strong {}, AGC {})",
+                d.field_too_weak, d.field_too_strong, d.agc
             ),
         }
     }
@@ -178,6 +190,31 @@ impl<SPI: SpiDevice> As5047p<SPI> {
     /// Magnet diagnostics (DIAAGC).
     pub fn diagnostics(&mut self) -> Result<Diagnostics, As5047pError<SPI::Error>> {
         Ok(Diagnostics::from_bits(self.read_register(DIAAGC)?))
+    }
+
+    /// The compensated angle and the diagnostics of the same moment, in
+    /// three frames (module docs). Magnet warnings (MAGH, MAGL) come back in
+    /// the diagnostics; a CORDIC overflow is [`As5047pError::AngleInvalid`].
+    pub fn angle_with_diagnostics(
+        &mut self,
+    ) -> Result<(u16, Diagnostics), As5047pError<SPI::Error>> {
+        self.frame(read_command(DIAAGC))?;
+        let diag = self.frame(read_command(ANGLECOM))?;
+        let angle = self.frame(NOP)?;
+        for answer in [diag, angle] {
+            if !has_even_parity(answer) {
+                return Err(As5047pError::Parity { frame: answer });
+            }
+        }
+        if (diag | angle) & FRAME_ERROR_FLAG != 0 {
+            let flags = self.error_flags()?;
+            return Err(As5047pError::ErrorFlag(flags));
+        }
+        let diagnostics = Diagnostics::from_bits(diag & FRAME_DATA_MASK);
+        if diagnostics.cordic_overflow {
+            return Err(As5047pError::AngleInvalid(diagnostics));
+        }
+        Ok((angle & FRAME_DATA_MASK, diagnostics))
     }
 
     /// Reads (and so clears) ERRFL.

@@ -7,7 +7,7 @@
 //! - [`RawCounter`]: what the MCU HAL provides for a timer in encoder mode;
 //! - [`WheelPair`]: left and right encoders read into `WheelTicks`.
 
-use crate::as5047p::{As5047p, As5047pError};
+use crate::as5047p::{As5047p, As5047pError, Diagnostics};
 use crate::counter::{CounterError, CounterExtender};
 use crate::registers::ANGLE_BITS;
 use core::fmt;
@@ -116,6 +116,8 @@ pub struct As5047pEncoder<SPI> {
     sensor: As5047p<SPI>,
     extender: CounterExtender,
     polarity: Polarity,
+    check_magnet: bool,
+    diagnostics: Option<Diagnostics>,
 }
 
 impl<SPI: SpiDevice> As5047pEncoder<SPI> {
@@ -134,7 +136,23 @@ impl<SPI: SpiDevice> As5047pEncoder<SPI> {
             sensor,
             extender,
             polarity,
+            check_magnet: false,
+            diagnostics: None,
         })
+    }
+
+    /// With the check on, every read fetches DIAAGC with the angle (three
+    /// frames instead of two, [`As5047p::angle_with_diagnostics`]): a CORDIC
+    /// overflow refuses the sample and the magnet warnings are kept in
+    /// [`As5047pEncoder::last_diagnostics`].
+    pub fn with_magnet_check(mut self, on: bool) -> Self {
+        self.check_magnet = on;
+        self
+    }
+
+    /// The diagnostics read with the last angle (magnet check on).
+    pub const fn last_diagnostics(&self) -> Option<Diagnostics> {
+        self.diagnostics
     }
 
     /// The sensor, for diagnostics.
@@ -162,7 +180,16 @@ impl<SPI: SpiDevice> As5047pEncoder<SPI> {
 impl<SPI: SpiDevice> CumulativeEncoder for As5047pEncoder<SPI> {
     type Error = EncoderError<As5047pError<SPI::Error>>;
     fn read_count(&mut self) -> Result<i64, Self::Error> {
-        let angle = self.sensor.angle().map_err(EncoderError::Source)?;
+        let angle = if self.check_magnet {
+            let (angle, diagnostics) = self
+                .sensor
+                .angle_with_diagnostics()
+                .map_err(EncoderError::Source)?;
+            self.diagnostics = Some(diagnostics);
+            angle
+        } else {
+            self.sensor.angle().map_err(EncoderError::Source)?
+        };
         let position = self
             .extender
             .update(u32::from(angle))

@@ -57,6 +57,11 @@ pub const DIAAGC_MAGH: u16 = 1 << 10;
 /// DIAAGC bit 11: magnetic field too weak (AGC at maximum).
 pub const DIAAGC_MAGL: u16 = 1 << 11;
 
+/// SPI mode: CPOL = 0, CPHA = 1 (mode 1), MSB first.
+pub const SPI_MODE: embedded_hal::spi::Mode = embedded_hal::spi::MODE_1;
+/// Highest SPI clock, Hz.
+pub const SPI_MAX_HZ: u32 = 10_000_000;
+
 /// Angle counts per revolution (14 bits).
 pub const COUNTS_PER_REVOLUTION: u32 = 1 << 14;
 /// Bits of the angle.

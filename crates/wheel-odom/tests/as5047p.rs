@@ -173,3 +173,58 @@ fn register_map_restated() {
     );
     assert_eq!(r::COUNTS_PER_REVOLUTION, 16_384);
 }
+
+#[test]
+fn angle_with_diagnostics_is_pipelined_in_three_frames() {
+    // READ DIAAGC (answer ignored), READ ANGLECOM (answer DIAAGC: LF, AGC 0x70),
+    // NOP (answer ANGLECOM 0x2000).
+    let mut spi = Frames::new()
+        .f(READ_DIAAGC, 0x0000)
+        .f(READ_ANGLECOM, parity(0x0170))
+        .f(0x0000, parity(0x2000))
+        .mock();
+    let mut enc = As5047p::new(spi.clone());
+    let (angle, d) = enc.angle_with_diagnostics().unwrap();
+    assert_eq!(angle, 0x2000);
+    assert!(d.is_healthy());
+    assert_eq!(d.agc, 0x70);
+    spi.done();
+}
+
+#[test]
+fn cordic_overflow_invalidates_the_angle() {
+    let mut spi = Frames::new()
+        .f(READ_DIAAGC, 0x0000)
+        .f(READ_ANGLECOM, parity(0x0B00))
+        .f(0x0000, parity(0x0123))
+        .mock();
+    let mut enc = As5047p::new(spi.clone());
+    match enc.angle_with_diagnostics() {
+        Err(As5047pError::AngleInvalid(d)) => {
+            assert!(d.cordic_overflow && d.field_too_weak && d.offset_compensated)
+        }
+        other => panic!("expected AngleInvalid, got {other:?}"),
+    }
+    spi.done();
+}
+
+#[test]
+fn pipelined_read_checks_the_error_flag() {
+    // The ANGLECOM answer carries EF: ERRFL is read (INVCOMM).
+    let mut spi = Frames::new()
+        .f(READ_DIAAGC, 0x0000)
+        .f(READ_ANGLECOM, parity(0x0100))
+        .f(0x0000, parity(0x4000))
+        .read(READ_ERRFL, parity(0x0002))
+        .mock();
+    let mut enc = As5047p::new(spi.clone());
+    assert_eq!(
+        enc.angle_with_diagnostics(),
+        Err(As5047pError::ErrorFlag(ErrorFlags {
+            parity: false,
+            invalid_command: true,
+            framing: false
+        }))
+    );
+    spi.done();
+}

@@ -151,3 +151,21 @@ fn software_decoder_as_a_wheel() {
     let ticks = pair.read_ticks(Timestamp(1)).unwrap();
     assert_eq!((ticks.left, ticks.right), (2, 0));
 }
+
+#[test]
+fn magnet_check_keeps_the_warnings() {
+    const READ_DIAAGC: u16 = 0xFFFC;
+    // MAGH warning (0x0400) with LF: the angle is still valid.
+    let mut bus = Frames::new()
+        .f(READ_DIAAGC, 0)
+        .f(READ_ANGLECOM, parity(0x0500))
+        .f(0x0000, parity(1_000))
+        .mock();
+    let mut enc = As5047pEncoder::new(As5047p::new(bus.clone()), Polarity::Normal, None)
+        .unwrap()
+        .with_magnet_check(true);
+    assert_eq!(enc.read_count(), Ok(1_000));
+    let d = enc.last_diagnostics().unwrap();
+    assert!(d.field_too_strong && !d.is_healthy());
+    bus.done();
+}
