@@ -1,9 +1,22 @@
 //! # flow-sensor
 //!
-//! `#![no_std]` driver for the PixArt PMW3901 / PAA5100JE optical-flow sensors
-//! over embedded-hal 1.0 `SpiDevice`. It implements `vslam-core`'s
-//! `FlowSource` and `FlowFrameSource` traits. The driver itself is built in
-//! its own issue; this crate is the place it lives.
+//! `#![no_std]` driver for the PixArt PMW3901MB (far field, >= 80 mm) and
+//! PAA5100JE (near field, 15-35 mm: the part a robot vacuum uses) optical-flow
+//! sensors over an embedded-hal 1.0 [`SpiDevice`](embedded_hal::spi::SpiDevice).
+//! One driver, [`FlowSensor`]; the [`Variant`] chosen at construction selects
+//! the power-up configuration table. It implements `vslam-core`'s
+//! [`FlowSource`](vslam_core::sensors::FlowSource) (Motion_Burst reports) and
+//! [`FlowFrameSource`](vslam_core::sensors::FlowFrameSource) (raw 35x35 frames).
+//!
+//! - [`registers`]: every address, bit field and timing of the register map;
+//! - [`config`]: the variants' configuration tables as data, with sources;
+//! - [`driver`]: power-up, motion, frame grab, and the exact bus transactions;
+//! - [`burst`]: Motion_Burst decoding; [`orientation`]: axis conventions;
+//! - [`optics`]: counts to radians and metres through `FlowOptics`.
+//!
+//! Sources: PixArt PMW3901MB-TXQT datasheet; Bitcraze `Bitcraze_PMW3901`;
+//! Pimoroni `pmw3901-python` (`PMW3901`, `PAA5100`, `frame_capture`); PX4
+//! `pmw3901` driver (counts per radian).
 #![no_std]
 #![cfg_attr(
     not(test),
@@ -14,3 +27,18 @@
         clippy::indexing_slicing
     )
 )]
+
+pub mod burst;
+pub mod config;
+pub mod driver;
+pub mod error;
+pub mod optics;
+pub mod orientation;
+pub mod registers;
+pub mod variant;
+
+pub use burst::MotionBurst;
+pub use driver::{FlowSensor, Mode};
+pub use error::Error;
+pub use orientation::{Orientation, Rotation};
+pub use variant::Variant;

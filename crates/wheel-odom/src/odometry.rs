@@ -1,0 +1,275 @@
+//! Differential-drive odometry from cumulative wheel counts.
+//!
+//! Each accepted [`WheelTicks`] sample after the first gives an
+//! [`OdometryStep`]: the body displacement over the step ([`OdometryDelta`],
+//! exact arc integration, [`crate::arc`]), the wheel angular rates
+//! ([`WheelRates`], what the EKF fuses) and the body velocity. The scale
+//! pipeline accumulates the wheel transaction `Tw` from the deltas.
+//!
+//! Time is validated by `vslam_core::SampleClock`; every sample is counted
+//! in [`SampleCounts`] as fused (the first one anchors the stream and counts
+//! as fused) or rejected with its reason:
+//!
+//! - [`Reject::OutOfOrder`], [`Reject::Duplicate`]: dropped, state kept;
+//! - [`Reject::Gap`]: longer than `max_step_ns`, nothing can be said about
+//!   the motion in between; the stream re-anchors on the sample;
+//! - [`Reject::OutOfRange`]: a wheel would have moved faster than
+//!   `max_wheel_speed` (an impossible jump, a glitched or reset counter) or
+//!   the count difference overflows; dropped, the previous anchor kept, so a
+//!   single glitch costs one sample and a persistent offset recovers at the
+//!   next gap;
+//! - [`Reject::NonFinite`]: cannot happen with checked parameters; kept as a
+//!   guard.
+
+use crate::arc::integrate_arc;
+use core::fmt;
+use vslam_core::geometry::Vec3;
+use vslam_core::sensors::{OdometryDelta, WheelRates, WheelTicks};
+use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
+
+/// Why odometry parameters were refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamsError {
+    /// Ticks per revolution must be positive.
+    BadTicksPerRevolution,
+    /// Wheel radii must be finite and positive.
+    BadWheelRadius,
+    /// The wheel base must be finite and positive.
+    BadWheelBase,
+    /// The maximum wheel speed must be finite and positive.
+    BadMaxWheelSpeed,
+    /// The maximum step must be positive.
+    BadMaxStep,
+}
+
+impl fmt::Display for ParamsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ParamsError::BadTicksPerRevolution => "ticks per revolution must be positive",
+            ParamsError::BadWheelRadius => "wheel radii must be finite and positive",
+            ParamsError::BadWheelBase => "wheel base must be finite and positive",
+            ParamsError::BadMaxWheelSpeed => "max wheel speed must be finite and positive",
+            ParamsError::BadMaxStep => "max step must be positive",
+        })
+    }
+}
+
+impl core::error::Error for ParamsError {}
+
+fn positive(v: f32) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+/// The geometry and limits of a differential drive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffDriveParams {
+    ticks_per_revolution: u32,
+    left_radius: f32,
+    right_radius: f32,
+    wheel_base: f32,
+    max_wheel_speed: f32,
+    max_step_ns: u64,
+}
+
+impl DiffDriveParams {
+    /// Checks and builds the parameters: encoder counts per wheel
+    /// revolution, wheel radii and wheel base (metres), the fastest a wheel
+    /// rim can move (m/s; faster steps are impossible jumps), and the longest
+    /// step integrated (ns; longer ones are gaps).
+    pub fn new(
+        ticks_per_revolution: u32,
+        left_radius: f32,
+        right_radius: f32,
+        wheel_base: f32,
+        max_wheel_speed: f32,
+        max_step_ns: u64,
+    ) -> Result<Self, ParamsError> {
+        if ticks_per_revolution == 0 {
+            return Err(ParamsError::BadTicksPerRevolution);
+        }
+        if !(positive(left_radius) && positive(right_radius)) {
+            return Err(ParamsError::BadWheelRadius);
+        }
+        if !positive(wheel_base) {
+            return Err(ParamsError::BadWheelBase);
+        }
+        if !positive(max_wheel_speed) {
+            return Err(ParamsError::BadMaxWheelSpeed);
+        }
+        if max_step_ns == 0 {
+            return Err(ParamsError::BadMaxStep);
+        }
+        Ok(DiffDriveParams {
+            ticks_per_revolution,
+            left_radius,
+            right_radius,
+            wheel_base,
+            max_wheel_speed,
+            max_step_ns,
+        })
+    }
+
+    /// Encoder counts per wheel revolution.
+    pub const fn ticks_per_revolution(&self) -> u32 {
+        self.ticks_per_revolution
+    }
+    /// Left wheel radius, metres.
+    pub const fn left_radius(&self) -> f32 {
+        self.left_radius
+    }
+    /// Right wheel radius, metres.
+    pub const fn right_radius(&self) -> f32 {
+        self.right_radius
+    }
+    /// Distance between the wheels' contact points, metres.
+    pub const fn wheel_base(&self) -> f32 {
+        self.wheel_base
+    }
+    /// Fastest possible wheel rim speed, m/s.
+    pub const fn max_wheel_speed(&self) -> f32 {
+        self.max_wheel_speed
+    }
+    /// Longest integrated step, ns.
+    pub const fn max_step_ns(&self) -> u64 {
+        self.max_step_ns
+    }
+
+    /// Counts to wheel rotation, radians.
+    pub fn ticks_to_radians(&self, ticks: i64) -> f32 {
+        ticks as f32 * (core::f32::consts::TAU / self.ticks_per_revolution as f32)
+    }
+}
+
+/// Body velocity over a step: forward speed of the mid-axle point and yaw rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyVelocity {
+    /// End of the step.
+    pub t: Timestamp,
+    /// Forward speed along the arc, m/s.
+    pub forward: f32,
+    /// Yaw rate, rad/s, counter-clockwise.
+    pub yaw_rate: f32,
+}
+
+/// Everything one accepted step yields.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometryStep {
+    /// Body displacement over the step, start body frame.
+    pub delta: OdometryDelta,
+    /// Mean wheel angular rates over the step.
+    pub rates: WheelRates,
+    /// Mean body velocity over the step.
+    pub velocity: BodyVelocity,
+}
+
+/// Differential-drive odometry: validates, integrates and counts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffDriveOdometry {
+    params: DiffDriveParams,
+    clock: SampleClock,
+    last: Option<WheelTicks>,
+    counts: SampleCounts,
+}
+
+impl DiffDriveOdometry {
+    /// Odometry for `params`, waiting for its first sample.
+    pub const fn new(params: DiffDriveParams) -> Self {
+        DiffDriveOdometry {
+            params,
+            clock: SampleClock::new(params.max_step_ns),
+            last: None,
+            counts: SampleCounts::new(),
+        }
+    }
+
+    /// The parameters.
+    pub const fn params(&self) -> &DiffDriveParams {
+        &self.params
+    }
+
+    /// Samples fused and rejected by reason.
+    pub const fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// The anchor the next sample is compared with.
+    pub const fn last(&self) -> Option<WheelTicks> {
+        self.last
+    }
+
+    /// Forgets the anchor (counts kept): the next sample starts again.
+    pub fn reset(&mut self) {
+        self.clock.reset();
+        self.last = None;
+    }
+
+    /// Takes one sample: `Ok(None)` for the first (anchor), `Ok(Some(step))`
+    /// for an accepted step, `Err(reason)` for a rejected one (module docs).
+    pub fn update(&mut self, ticks: WheelTicks) -> Result<Option<OdometryStep>, Reject> {
+        let outcome = self.step(ticks);
+        self.counts.record(outcome.map(|_| ()));
+        outcome
+    }
+
+    fn step(&mut self, ticks: WheelTicks) -> Result<Option<OdometryStep>, Reject> {
+        let mut clock = self.clock;
+        let accepted = clock.accept(ticks.t);
+        let (dt, last) = match (accepted, self.last) {
+            (Ok(Some(dt)), Some(last)) => (dt, last),
+            (Ok(_), _) => {
+                // The first sample (or a clock without anchor ticks): anchor.
+                self.clock = clock;
+                self.last = Some(ticks);
+                return Ok(None);
+            }
+            (Err(Reject::Gap), _) => {
+                self.clock = clock;
+                self.last = Some(ticks);
+                return Err(Reject::Gap);
+            }
+            (Err(reason), _) => return Err(reason),
+        };
+        let dl = ticks
+            .left
+            .checked_sub(last.left)
+            .ok_or(Reject::OutOfRange)?;
+        let dr = ticks
+            .right
+            .checked_sub(last.right)
+            .ok_or(Reject::OutOfRange)?;
+        let p = &self.params;
+        let left_rad = p.ticks_to_radians(dl);
+        let right_rad = p.ticks_to_radians(dr);
+        let left_m = left_rad * p.left_radius;
+        let right_m = right_rad * p.right_radius;
+        let max_travel = p.max_wheel_speed * dt;
+        if !(libm::fabsf(left_m) <= max_travel && libm::fabsf(right_m) <= max_travel) {
+            return Err(Reject::OutOfRange);
+        }
+        let arc = integrate_arc(left_m, right_m, p.wheel_base);
+        let rates = WheelRates::new(ticks.t, left_rad / dt, right_rad / dt)?;
+        let velocity = BodyVelocity {
+            t: ticks.t,
+            forward: arc.arc_length / dt,
+            yaw_rate: arc.dyaw / dt,
+        };
+        let finite = [arc.x, arc.y, arc.dyaw, velocity.forward, velocity.yaw_rate];
+        if !finite.iter().all(|v| v.is_finite()) {
+            return Err(Reject::NonFinite);
+        }
+        let delta = OdometryDelta {
+            t0: last.t,
+            t1: ticks.t,
+            translation: Vec3::new(arc.x, arc.y, 0.0),
+            dyaw: arc.dyaw,
+            path_length: arc.path_length(),
+        };
+        self.clock = clock;
+        self.last = Some(ticks);
+        Ok(Some(OdometryStep {
+            delta,
+            rates,
+            velocity,
+        }))
+    }
+}

@@ -1,0 +1,208 @@
+//! Differential-drive odometry: exact straight lines, rotations and arcs;
+//! rejections with reasons, counted; no input panics.
+
+use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
+use std::f32::consts::{PI, TAU};
+use vslam_core::Reject;
+use vslam_core::Timestamp;
+use vslam_core::sensors::WheelTicks;
+use wheel_odom::{DiffDriveOdometry, DiffDriveParams, ParamsError};
+
+const MS: u64 = 1_000_000;
+const TPR: u32 = 1_000;
+const R: f32 = 0.035;
+const BASE: f32 = 0.23;
+
+fn odo() -> DiffDriveOdometry {
+    DiffDriveOdometry::new(DiffDriveParams::new(TPR, R, R, BASE, 2.0, 500 * MS).unwrap())
+}
+
+fn ticks(ms: u64, left: i64, right: i64) -> WheelTicks {
+    WheelTicks {
+        t: Timestamp(ms * MS),
+        left,
+        right,
+    }
+}
+
+fn close(a: f32, b: f32, tol: f32) -> bool {
+    (a - b).abs() <= tol
+}
+
+#[test]
+fn straight_line_is_exact() {
+    let mut o = odo();
+    assert_eq!(o.update(ticks(0, 0, 0)), Ok(None));
+    let s = o.update(ticks(20, 100, 100)).unwrap().unwrap();
+    let d = 100.0 / TPR as f32 * TAU * R; // 0.02199 m
+    assert!(close(s.delta.translation.x, d, 1e-7));
+    assert_eq!(s.delta.translation.y, 0.0);
+    assert_eq!(s.delta.dyaw, 0.0);
+    assert!(close(s.delta.path_length, d, 1e-7));
+    assert_eq!((s.delta.t0, s.delta.t1), (Timestamp(0), Timestamp(20 * MS)));
+    let rate = 100.0 / TPR as f32 * TAU / 0.02;
+    assert!(close(s.rates.left, rate, 1e-4) && close(s.rates.right, rate, 1e-4));
+    assert!(close(s.velocity.forward, d / 0.02, 1e-5));
+    assert_eq!(s.velocity.yaw_rate, 0.0);
+    assert_eq!(o.counts().fused(), 2);
+}
+
+#[test]
+fn pure_rotation_is_exact() {
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    // Each wheel travels a quarter of the circle of radius BASE/2: a quarter turn.
+    let wheel_m = PI / 2.0 * BASE / 2.0;
+    let n = (wheel_m / (TAU * R) * TPR as f32).round() as i64; // 821
+    let s = o.update(ticks(200, -n, n)).unwrap().unwrap();
+    let dyaw = 2.0 * (n as f32 / TPR as f32 * TAU * R) / BASE;
+    assert!(close(s.delta.dyaw, dyaw, 1e-6));
+    assert!(close(s.delta.dyaw, PI / 2.0, 2e-3));
+    assert_eq!(s.delta.translation.x, 0.0);
+    assert_eq!(s.delta.translation.y, 0.0);
+    assert_eq!(s.delta.path_length, 0.0);
+    assert!(close(s.velocity.yaw_rate, dyaw / 0.2, 1e-4));
+    assert_eq!(s.velocity.forward, 0.0);
+}
+
+#[test]
+fn arc_chord_is_exact() {
+    // Left wheel still, right wheel moves: pivot about the left wheel.
+    // dyaw = d / BASE; the body origin (BASE/2 from the pivot) moves on a
+    // circle of radius BASE/2: chord (r sin dyaw, r (1 - cos dyaw)).
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    let s = o.update(ticks(90, 0, 400)).unwrap().unwrap();
+    let d = 400.0 / TPR as f32 * TAU * R;
+    let dyaw = d / BASE;
+    let r = BASE / 2.0;
+    assert!(close(s.delta.dyaw, dyaw, 1e-6));
+    assert!(close(s.delta.translation.x, r * dyaw.sin(), 1e-6));
+    assert!(close(s.delta.translation.y, r * (1.0 - dyaw.cos()), 1e-6));
+    assert!(close(s.delta.path_length, d / 2.0, 1e-6));
+    assert!(s.delta.path_length >= s.delta.translation.norm());
+}
+
+#[test]
+fn unequal_radii_scale_each_wheel() {
+    let mut o = DiffDriveOdometry::new(
+        DiffDriveParams::new(TPR, 0.030, 0.040, BASE, 2.0, 500 * MS).unwrap(),
+    );
+    o.update(ticks(0, 0, 0)).unwrap();
+    // Equal travel needs 4:3 counts.
+    let s = o.update(ticks(50, 400, 300)).unwrap().unwrap();
+    assert!(close(s.delta.dyaw, 0.0, 1e-6));
+    assert!(close(s.delta.translation.x, 0.4 * TAU * 0.030, 1e-6));
+}
+
+#[test]
+fn time_rejections_have_reasons_and_are_counted() {
+    let mut o = odo();
+    o.update(ticks(10, 0, 0)).unwrap();
+    assert_eq!(o.update(ticks(10, 1, 1)), Err(Reject::Duplicate));
+    assert_eq!(o.update(ticks(5, 1, 1)), Err(Reject::OutOfOrder));
+    // A gap re-anchors: the next step counts from the gap sample.
+    assert_eq!(o.update(ticks(2_000, 50, 50)), Err(Reject::Gap));
+    let s = o.update(ticks(2_010, 60, 60)).unwrap().unwrap();
+    assert!(close(
+        s.delta.path_length,
+        10.0 / TPR as f32 * TAU * R,
+        1e-7
+    ));
+    let c = o.counts();
+    assert_eq!(c.fused(), 2);
+    assert_eq!(c.rejected(Reject::Duplicate), 1);
+    assert_eq!(c.rejected(Reject::OutOfOrder), 1);
+    assert_eq!(c.rejected(Reject::Gap), 1);
+    assert_eq!(c.seen(), 5);
+}
+
+#[test]
+fn impossible_jump_is_rejected_and_the_anchor_kept() {
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    // 2 m/s over 10 ms is 2 cm: 91 counts. A glitch of 5000 is impossible.
+    assert_eq!(o.update(ticks(10, 5_000, 10)), Err(Reject::OutOfRange));
+    assert_eq!(o.last(), Some(ticks(0, 0, 0)));
+    // The next good sample is measured from the kept anchor over 20 ms.
+    let s = o.update(ticks(20, 20, 20)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(0));
+    assert!(close(
+        s.velocity.forward,
+        20.0 / TPR as f32 * TAU * R / 0.02,
+        1e-5
+    ));
+    // Count differences that overflow are impossible too.
+    assert_eq!(o.update(ticks(30, i64::MIN, 0)), Err(Reject::OutOfRange));
+    assert_eq!(o.counts().rejected(Reject::OutOfRange), 2);
+}
+
+#[test]
+fn parameters_are_checked() {
+    assert_eq!(
+        DiffDriveParams::new(0, R, R, BASE, 1.0, MS),
+        Err(ParamsError::BadTicksPerRevolution)
+    );
+    assert_eq!(
+        DiffDriveParams::new(TPR, f32::NAN, R, BASE, 1.0, MS),
+        Err(ParamsError::BadWheelRadius)
+    );
+    assert_eq!(
+        DiffDriveParams::new(TPR, R, R, 0.0, 1.0, MS),
+        Err(ParamsError::BadWheelBase)
+    );
+    assert_eq!(
+        DiffDriveParams::new(TPR, R, R, BASE, f32::INFINITY, MS),
+        Err(ParamsError::BadMaxWheelSpeed)
+    );
+    assert_eq!(
+        DiffDriveParams::new(TPR, R, R, BASE, 1.0, 0),
+        Err(ParamsError::BadMaxStep)
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { rng_seed: RngSeed::Fixed(77), cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn straight_lines_are_exact(n in -40i64..=40, dt_ms in 10u64..=100) {
+        let mut o = odo();
+        o.update(ticks(0, 0, 0)).unwrap();
+        let s = o.update(ticks(dt_ms, n, n)).unwrap().unwrap();
+        let d = n as f32 / TPR as f32 * TAU * R;
+        prop_assert!(close(s.delta.translation.x, d, 1e-6));
+        prop_assert_eq!(s.delta.translation.y, 0.0);
+        prop_assert_eq!(s.delta.dyaw, 0.0);
+        prop_assert!(close(s.delta.path_length, d.abs(), 1e-6));
+    }
+
+    #[test]
+    fn pure_rotations_are_exact(n in -40i64..=40, dt_ms in 10u64..=100) {
+        let mut o = odo();
+        o.update(ticks(0, 0, 0)).unwrap();
+        let s = o.update(ticks(dt_ms, -n, n)).unwrap().unwrap();
+        let dyaw = 2.0 * (n as f32 / TPR as f32 * TAU * R) / BASE;
+        prop_assert!(close(s.delta.dyaw, dyaw, 1e-6));
+        prop_assert_eq!(s.delta.translation.norm(), 0.0);
+        prop_assert_eq!(s.delta.path_length, 0.0);
+    }
+
+    #[test]
+    fn path_length_bounds_the_chord(l in -40i64..=40, r in -40i64..=40) {
+        let mut o = odo();
+        o.update(ticks(0, 0, 0)).unwrap();
+        let s = o.update(ticks(100, l, r)).unwrap().unwrap();
+        prop_assert!(s.delta.path_length + 1e-7 >= s.delta.translation.norm());
+    }
+
+    #[test]
+    fn no_input_panics_and_every_sample_is_counted(
+        samples in prop::collection::vec((any::<u64>(), any::<i64>(), any::<i64>()), 0..100)) {
+        let mut o = odo();
+        for &(t, l, r) in &samples {
+            let _ = o.update(WheelTicks { t: Timestamp(t), left: l, right: r });
+        }
+        prop_assert_eq!(o.counts().seen() as usize, samples.len());
+    }
+}
