@@ -228,10 +228,35 @@ pub struct GroundView {
 }
 
 impl GroundView {
+    /// Smallest near-band fraction for a kind to count as present underfoot.
+    pub const PRESENT_MIN: f32 = 0.05;
+
     /// The floor the robot is on now: the near band's dominant kind, or the
     /// whole region's if the near band holds no ground.
     pub fn current_kind(&self) -> SurfaceKind {
         self.near.unwrap_or(self.mix).dominant()
+    }
+
+    /// The floor the robot is on now, as fractions: the weighted [`Self::mix`]
+    /// restricted to the kinds present in the near band (at least
+    /// [`Self::PRESENT_MIN`] of it). Kinds seen only further up are ahead of the
+    /// robot, not under it (see [`Self::upcoming`]). Without near-band ground,
+    /// the whole mix.
+    pub fn present_mix(&self) -> SurfaceMix {
+        let Some(near) = self.near else {
+            return self.mix;
+        };
+        let mut w = [0.0f32; SurfaceKind::COUNT];
+        for ((o, m), n) in w
+            .iter_mut()
+            .zip(self.mix.fractions().iter())
+            .zip(near.fractions().iter())
+        {
+            if *n >= Self::PRESENT_MIN {
+                *o = *m;
+            }
+        }
+        SurfaceMix::from_weights(&w).unwrap_or(near)
     }
 }
 

@@ -4,8 +4,13 @@
 //! the last surface mix and when it was seen, so the filter can ask at any
 //! time what floor it is on:
 //!
-//! - a map with ground replaces the mix (and its anticipation of a floor
-//!   ahead); a map without ground ([`NoSurface`]) keeps the last mix, counted;
+//! - a map with ground replaces the floor underfoot by its present mix
+//!   ([`GroundView::present_mix`]: the kinds in the near band) and its
+//!   anticipation of a floor ahead; a map without ground ([`NoSurface`]) keeps
+//!   the last floor, counted;
+//! - a forward camera cannot see under the robot: once an announced floor is
+//!   the nearest one in view but its arrival time has not come, the floor
+//!   underfoot and the announced arrival are kept;
 //! - the answer carries the age of the mix; beyond `stale_after` it blends
 //!   linearly, over `fallback_ramp`, towards a conservative default;
 //! - an anticipated floor ahead takes over around its arrival time
@@ -241,17 +246,27 @@ impl SurfaceTracker {
                 return Err(Reject::LowQuality);
             }
         };
-        // A passed anticipated arrival is a crossing, before it is replaced.
-        if let Some(prev) = self.last_crossing(t) {
-            self.last_crossing = Some(prev);
-        }
+        // A passed anticipated arrival is a crossing, kept before it is replaced.
+        self.last_crossing = self.last_crossing(t);
         let new_kind = view.current_kind();
-        if self.kind.is_some_and(|old| old != new_kind) {
+        self.last_map = Some(t);
+        if let Some(p) = self.anticipation
+            && p.kind == new_kind
+            && p.arrival.is_some_and(|a| a > t)
+        {
+            // The announced floor is now the nearest one in view, but the
+            // wheels have not reached it yet: keep the floor underfoot and the
+            // announced arrival.
+            return Ok(());
+        }
+        let arrived_as_announced = self
+            .anticipation
+            .is_some_and(|p| p.kind == new_kind && p.arrival.is_some_and(|a| a <= t));
+        if self.kind.is_some_and(|old| old != new_kind) && !arrived_as_announced {
             self.last_crossing = Some(t);
         }
         self.kind = Some(new_kind);
-        self.mix = Some(view.mix);
-        self.last_map = Some(t);
+        self.mix = Some(view.present_mix());
         self.anticipation = view.upcoming.and_then(|u| {
             Anticipation::from_upcoming(
                 &u,
