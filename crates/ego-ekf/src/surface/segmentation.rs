@@ -13,7 +13,9 @@
 //!   fractions; unknown and non-ground pixels only lower the coverage;
 //! - the ground region is split into a *near* band (the bottom) and an *ahead*
 //!   band (the one above it): a ground kind in the ahead band that differs from
-//!   the near band's floor announces an upcoming surface change, and the row
+//!   the near band's floor, and whose share grows from the near to the ahead
+//!   band by at least `min_change_fraction`, announces an upcoming surface
+//!   change, and the row
 //!   where it starts tells (through the camera geometry, see
 //!   [`super::anticipation`]) how far away the boundary is.
 //!
@@ -206,9 +208,9 @@ pub struct UpcomingSurface {
     pub kind: SurfaceKind,
     /// Its fraction of the ahead band's ground.
     pub fraction: f32,
-    /// Where its nearest edge lies: the lower edge of the nearest ahead-band
-    /// row where it covers at least the change fraction, as a fraction of the
-    /// map height (0 top, 1 bottom).
+    /// Where its nearest edge lies: the lower edge of the nearest row (near or
+    /// ahead band) where it covers at least the change fraction of the row's
+    /// ground, as a fraction of the map height (0 top, 1 bottom).
     pub row_fraction: f32,
 }
 
@@ -239,20 +241,22 @@ impl GroundView {
 
     /// The floor the robot is on now, as fractions: the weighted [`Self::mix`]
     /// restricted to the kinds present in the near band (at least
-    /// [`Self::PRESENT_MIN`] of it). Kinds seen only further up are ahead of the
-    /// robot, not under it (see [`Self::upcoming`]). Without near-band ground,
-    /// the whole mix.
+    /// [`Self::PRESENT_MIN`] of it), without an announced upcoming kind. Kinds
+    /// seen only further up, or announced, are ahead of the robot, not under
+    /// it (see [`Self::upcoming`]). Without near-band ground, the whole mix.
     pub fn present_mix(&self) -> SurfaceMix {
         let Some(near) = self.near else {
             return self.mix;
         };
+        let ahead = self.upcoming.map(|u| u.kind);
         let mut w = [0.0f32; SurfaceKind::COUNT];
-        for ((o, m), n) in w
+        for (((o, m), n), k) in w
             .iter_mut()
             .zip(self.mix.fractions().iter())
             .zip(near.fractions().iter())
+            .zip(SurfaceKind::ALL.iter())
         {
-            if *n >= Self::PRESENT_MIN {
+            if *n >= Self::PRESENT_MIN && ahead != Some(*k) {
                 *o = *m;
             }
         }
@@ -370,8 +374,8 @@ impl Segmenter {
         let near_mix = SurfaceMix::from_weights(&near.kinds);
         let ahead_mix = SurfaceMix::from_weights(&ahead.kinds);
         let current = near_mix.unwrap_or(mix).dominant();
-        let upcoming =
-            ahead_mix.and_then(|a| self.upcoming(labels, current, &a, ahead_start, near_start));
+        let upcoming = ahead_mix
+            .and_then(|a| self.upcoming(labels, current, near_mix.as_ref(), &a, ahead_start));
         Ok(GroundView {
             mix,
             coverage,
@@ -387,24 +391,25 @@ impl Segmenter {
         &self,
         labels: &LabelView<'_>,
         current: SurfaceKind,
+        near: Option<&SurfaceMix>,
         ahead: &SurfaceMix,
         ahead_start: usize,
-        near_start: usize,
     ) -> Option<UpcomingSurface> {
         let min = self.config.min_change_fraction;
-        let (kind, fraction) = ahead.iter().filter(|(k, _)| *k != current).fold(
-            None::<(SurfaceKind, f32)>,
-            |best, (k, f)| match best {
+        // A floor approaches when its share grows from the near band to the
+        // ahead band (two floors side by side do not).
+        let growth = |k: SurfaceKind, f: f32| f - near.map_or(0.0, |n| n.fraction(k));
+        let (kind, fraction) = ahead
+            .iter()
+            .filter(|(k, f)| *k != current && growth(*k, *f) >= min.max(f32::MIN_POSITIVE))
+            .fold(None::<(SurfaceKind, f32)>, |best, (k, f)| match best {
                 Some((_, bf)) if bf >= f => best,
                 _ => Some((k, f)),
-            },
-        )?;
-        if fraction < min.max(f32::MIN_POSITIVE) {
-            return None;
-        }
-        // Nearest row first: scan the ahead band from its bottom up.
+            })?;
+        // Nearest row first: scan from the bottom up through the near band
+        // (the boundary may already be there) and the ahead band.
         let height = labels.height();
-        let row = (ahead_start..near_start).rev().find(|y| {
+        let row = (ahead_start..height).rev().find(|y| {
             labels.row(*y).is_some_and(|r| {
                 let c = RowCounts::of(&self.classes, r);
                 let g = c.ground();
