@@ -73,12 +73,12 @@ fn one_bump_is_one_event() {
     assert_eq!(ev.len(), 1, "{ev:?}");
     let e = ev[0];
     assert_eq!(e.kind, JoltKind::SuspectedObstacle);
-    // The peak is the signal's largest sample, at its time.
-    let (k_max, v_max) = s
-        .iter()
-        .enumerate()
-        .fold((0, 0.0f64), |b, (k, v)| if *v > b.1 { (k, *v) } else { b });
-    assert_eq!(e.magnitude, v_max as f32, "{e:?}");
+    // The peak is the signal's largest sample (as the detector sees it, f32;
+    // the first of equal ones), at its time.
+    let (k_max, v_max) = s.iter().enumerate().fold((0, 0.0f32), |b, (k, v)| {
+        if *v as f32 > b.1 { (k, *v as f32) } else { b }
+    });
+    assert_eq!(e.magnitude, v_max, "{e:?}");
     assert_eq!(e.t, t_of(k_max));
     assert!(e.onset <= e.t);
     assert_eq!(e.explained, 2.0);
