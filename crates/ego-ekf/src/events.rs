@@ -284,11 +284,12 @@ impl JoltConfig {
 enum Phase {
     /// Waiting for a jolt; `armed` once the deviation has been calm.
     Idle { armed: bool },
-    /// Inside a jolt's window.
+    /// Inside a jolt's window; `ctx` is the context at the peak.
     Capturing {
         onset: Timestamp,
         peak: f32,
         peak_t: Timestamp,
+        ctx: JoltContext,
     },
     /// After a window, until the given time.
     Refractory { until: Timestamp },
@@ -330,8 +331,9 @@ impl JoltDetector {
     }
 
     /// Takes one vertical deviation sample (m/s^2; its absolute value is
-    /// used) at `t`, judged in `ctx`. Returns the event of a jolt whose window
-    /// closed with this sample.
+    /// used) at `t`, with `ctx` what the floor explains at `t`. Returns the
+    /// event of a jolt whose window closed with this sample; the peak is
+    /// judged in the context of the peak's time.
     pub fn push(
         &mut self,
         t: Timestamp,
@@ -349,7 +351,7 @@ impl JoltDetector {
                 // The stream broke: close an open jolt with what was seen,
                 // then wait for calm before the next one.
                 self.samples.rejected_one(Reject::Gap);
-                let ev = self.close(ctx);
+                let ev = self.close();
                 self.phase = Phase::Idle { armed: false };
                 return Ok(ev);
             }
@@ -362,15 +364,16 @@ impl JoltDetector {
         Ok(self.step(t, x, ctx))
     }
 
-    fn close(&mut self, ctx: &JoltContext) -> Option<JoltEvent> {
+    fn close(&mut self) -> Option<JoltEvent> {
         if let Phase::Capturing {
             onset,
             peak,
             peak_t,
+            ctx,
         } = self.phase
         {
             self.phase = Phase::Idle { armed: false };
-            Some(self.event(onset, peak_t, peak, ctx))
+            Some(self.event(onset, peak_t, peak, &ctx))
         } else {
             None
         }
@@ -396,6 +399,7 @@ impl JoltDetector {
                         onset: t,
                         peak: x,
                         peak_t: t,
+                        ctx: *ctx,
                     };
                 } else if !armed && x < self.config.rearm_fraction * onset_level {
                     self.phase = Phase::Idle { armed: true };
@@ -406,14 +410,21 @@ impl JoltDetector {
                 onset,
                 peak,
                 peak_t,
+                ctx: peak_ctx,
             } => {
-                let (peak, peak_t) = if x > peak { (x, t) } else { (peak, peak_t) };
+                // The peak is judged by what the floor explained at its time.
+                let (peak, peak_t, peak_ctx) = if x > peak {
+                    (x, t, *ctx)
+                } else {
+                    (peak, peak_t, peak_ctx)
+                };
                 let open_ns = t.nanos_since(onset).unwrap_or(0);
                 if open_ns < self.config.window_ns {
                     self.phase = Phase::Capturing {
                         onset,
                         peak,
                         peak_t,
+                        ctx: peak_ctx,
                     };
                     return None;
                 }
@@ -425,7 +436,7 @@ impl JoltDetector {
                     )
                     .unwrap_or(Timestamp(u64::MAX));
                 self.phase = Phase::Refractory { until };
-                Some(self.event(onset, peak_t, peak, ctx))
+                Some(self.event(onset, peak_t, peak, &peak_ctx))
             }
             Phase::Refractory { until } => {
                 if t >= until {

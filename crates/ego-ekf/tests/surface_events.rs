@@ -340,3 +340,57 @@ fn a_cable_is_still_an_obstacle_on_wood_and_on_carpet() {
     assert_eq!(obstacles[0].surface, Some(SurfaceKind::Carpet));
     assert!((obstacles[0].t.seconds_since(Timestamp(0)).unwrap() - 6.0125).abs() < 0.02);
 }
+
+#[test]
+fn a_threshold_strip_class_in_view_explains_its_jolt_and_only_there() {
+    // Wood with a 4 cm strip 0.6 m ahead; at 0.2 m/s the wheels reach it at
+    // 3.0 s. The strip jolts 6.5 m/s^2 there; a cable hits at 5.0 s on wood.
+    let speed = 0.2;
+    let n = (6.0 * RATE) as usize;
+    let mut r = rng(31);
+    let mut s = vibration(&mut r, 0.3, n);
+    add_jolt(&mut s, 2.99, 0.03, 6.5);
+    add_jolt(&mut s, 5.0, 0.025, 7.0);
+    let mut cfg = SurfaceConfig::new(WheelType::HardRubber, classes());
+    cfg.camera = camera();
+    let mut model = SurfaceModel::new(cfg);
+    let mut m = JoltMonitor::<16>::new(JoltConfig::default());
+    let (w, h) = (32, 96);
+    let mut announced_strip = false;
+    let mut events = Vec::new();
+    for (k, v) in s.iter().enumerate() {
+        let t = t_of(k);
+        if k % 63 == 0 {
+            let secs = k as f64 / RATE;
+            let labels = strip_map(w, h, 0.4, 0.6 - speed * secs, 0.04);
+            let _ = model.on_segmentation(t, &LabelView::new(&labels, w, h, w).unwrap(), 0.2);
+            let st = model.state_at(t);
+            announced_strip |= st
+                .anticipation
+                .is_some_and(|a| a.kind == SurfaceKind::Threshold);
+        }
+        if let Some(e) = m
+            .push(t, v.abs() as f32, &model.jolt_context(t, 0.2))
+            .unwrap()
+        {
+            events.push(e);
+        }
+    }
+    assert!(announced_strip, "the strip class was announced ahead");
+    let at = |e: &JoltEvent| e.t.seconds_since(Timestamp(0)).unwrap();
+    let strip: Vec<_> = events
+        .iter()
+        .filter(|e| (at(e) - 3.0).abs() < 0.1)
+        .collect();
+    assert_eq!(strip.len(), 1, "{events:?}");
+    eprintln!("strip event: {:?}", strip[0]);
+    assert!(!strip[0].kind.is_obstacle(), "{:?}", strip[0]);
+    let cable: Vec<_> = events
+        .iter()
+        .filter(|e| (at(e) - 5.0).abs() < 0.1)
+        .collect();
+    assert_eq!(cable.len(), 1, "{events:?}");
+    assert_eq!(cable[0].kind, JoltKind::SuspectedObstacle);
+    assert_eq!(cable[0].surface, Some(SurfaceKind::Wood));
+    assert_eq!(count(&events, JoltKind::SuspectedObstacle), 1, "{events:?}");
+}

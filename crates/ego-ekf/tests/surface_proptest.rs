@@ -69,21 +69,24 @@ fn label_case() -> impl Strategy<Value = (usize, usize, usize, Vec<u8>, Vec<Clas
             Just(w),
             Just(h),
             Just(stride),
-            prop::collection::vec(
-                prop_oneof![0u8..24, any::<u8>()],
-                len..=len,
-            ),
+            prop::collection::vec(prop_oneof![0u8..24, any::<u8>()], len..=len),
             prop::collection::vec(role(), 24),
         )
     })
 }
 
 fn seg_config() -> impl Strategy<Value = SegmentationConfig> {
-    (any_f32(), any_f32(), any_f32(), any_f32(), any_f32(), any_f32()).prop_map(
-        |(a, b, c, d, e, f)| {
-            SegmentationConfig::new(a, b, c, d, e, f).unwrap_or_default()
-        },
+    (
+        any_f32(),
+        any_f32(),
+        any_f32(),
+        any_f32(),
+        any_f32(),
+        any_f32(),
     )
+        .prop_map(|(a, b, c, d, e, f)| {
+            SegmentationConfig::new(a, b, c, d, e, f).unwrap_or_default()
+        })
 }
 
 proptest! {

@@ -14,8 +14,9 @@
 //! - the ground region is split into a *near* band (the bottom) and an *ahead*
 //!   band (the one above it): a ground kind in the ahead band that differs from
 //!   the near band's floor, and whose share grows from the near to the ahead
-//!   band by at least `min_change_fraction`, announces an upcoming surface
-//!   change, and the row
+//!   band by at least `min_change_fraction` (`min_strip_fraction` for a narrow
+//!   threshold strip), announces an upcoming surface change (the nearest one
+//!   if several), and the row
 //!   where it starts tells (through the camera geometry, see
 //!   [`super::anticipation`]) how far away the boundary is.
 //!
@@ -66,6 +67,7 @@ pub struct SegmentationConfig {
     ahead_band: f32,
     min_coverage: f32,
     min_change_fraction: f32,
+    min_strip_fraction: f32,
 }
 
 impl Default for SegmentationConfig {
@@ -81,6 +83,7 @@ impl Default for SegmentationConfig {
             ahead_band: 1.0 / 3.0,
             min_coverage: 0.02,
             min_change_fraction: 0.25,
+            min_strip_fraction: 0.05,
         }
     }
 }
@@ -125,6 +128,7 @@ impl SegmentationConfig {
             ahead_band,
             min_coverage,
             min_change_fraction,
+            min_strip_fraction: 0.05,
         })
     }
 
@@ -151,6 +155,29 @@ impl SegmentationConfig {
     /// Minimum fraction of a different kind in the ahead band.
     pub fn min_change_fraction(&self) -> f32 {
         self.min_change_fraction
+    }
+    /// Minimum fraction of a threshold strip in the ahead band (default 0.05).
+    pub fn min_strip_fraction(&self) -> f32 {
+        self.min_strip_fraction
+    }
+
+    /// The same configuration with another minimum threshold-strip fraction
+    /// (strips are narrow, so they are announced from a smaller share than
+    /// other floors); values outside `[0, 1]` or NaN leave it unchanged.
+    pub fn with_min_strip_fraction(mut self, fraction: f32) -> Self {
+        if (0.0..=1.0).contains(&fraction) {
+            self.min_strip_fraction = fraction;
+        }
+        self
+    }
+
+    /// The announcement share for a kind: the strip fraction for threshold
+    /// strips, the change fraction for every other floor.
+    pub fn min_fraction_for(&self, kind: SurfaceKind) -> f32 {
+        match kind {
+            SurfaceKind::Threshold => self.min_strip_fraction,
+            _ => self.min_change_fraction,
+        }
     }
 
     /// The rows of a map `height` rows high: `(horizon_row, ahead_start, near_start)`.
@@ -395,32 +422,56 @@ impl Segmenter {
         ahead: &SurfaceMix,
         ahead_start: usize,
     ) -> Option<UpcomingSurface> {
-        let min = self.config.min_change_fraction;
         // A floor approaches when its share grows from the near band to the
-        // ahead band (two floors side by side do not).
+        // ahead band (two floors side by side do not); a threshold strip is
+        // narrow by nature and needs a smaller share.
         let growth = |k: SurfaceKind, f: f32| f - near.map_or(0.0, |n| n.fraction(k));
-        let (kind, fraction) = ahead
-            .iter()
-            .filter(|(k, f)| *k != current && growth(*k, *f) >= min.max(f32::MIN_POSITIVE))
-            .fold(None::<(SurfaceKind, f32)>, |best, (k, f)| match best {
-                Some((_, bf)) if bf >= f => best,
-                _ => Some((k, f)),
-            })?;
-        // Nearest row first: scan from the bottom up through the near band
-        // (the boundary may already be there) and the ahead band.
-        let height = labels.height();
-        let row = (ahead_start..height).rev().find(|y| {
+        let mut best: Option<(usize, UpcomingSurface)> = None;
+        for (kind, fraction) in ahead.iter() {
+            let min = self.config.min_fraction_for(kind).max(f32::MIN_POSITIVE);
+            if kind == current || growth(kind, fraction) < min {
+                continue;
+            }
+            let Some(row) = self.nearest_row(labels, kind, min, ahead_start) else {
+                continue;
+            };
+            // The nearest boundary wins; on a tie the larger share.
+            let better = match best {
+                None => true,
+                Some((r, b)) => row > r || (row == r && fraction > b.fraction),
+            };
+            if better {
+                let height = labels.height().max(1);
+                best = Some((
+                    row,
+                    UpcomingSurface {
+                        kind,
+                        fraction,
+                        row_fraction: (row + 1) as f32 / height as f32,
+                    },
+                ));
+            }
+        }
+        best.map(|(_, u)| u)
+    }
+
+    /// The nearest row (scanning from the bottom up through the near band,
+    /// where the boundary may already be, and the ahead band) in which `kind`
+    /// covers at least `min` of the row's ground.
+    fn nearest_row(
+        &self,
+        labels: &LabelView<'_>,
+        kind: SurfaceKind,
+        min: f32,
+        ahead_start: usize,
+    ) -> Option<usize> {
+        (ahead_start..labels.height()).rev().find(|y| {
             labels.row(*y).is_some_and(|r| {
                 let c = RowCounts::of(&self.classes, r);
                 let g = c.ground();
                 let n = c.kinds.get(kind.index()).copied().unwrap_or(0);
-                g > 0 && n as f32 >= min * g as f32 && n > 0
+                n > 0 && n as f32 >= min * g as f32
             })
-        })?;
-        Some(UpcomingSurface {
-            kind,
-            fraction,
-            row_fraction: (row + 1) as f32 / height.max(1) as f32,
         })
     }
 }

@@ -10,7 +10,10 @@
 //!   the last floor, counted;
 //! - a forward camera cannot see under the robot: once an announced floor is
 //!   the nearest one in view but its arrival time has not come, the floor
-//!   underfoot and the announced arrival are kept;
+//!   underfoot and the announced arrival are kept; an announced floor that
+//!   leaves the view before its arrival (a narrow strip passing below the
+//!   camera's nearest floor) stays announced until it arrives, unless a new
+//!   floor is announced;
 //! - the answer carries the age of the mix; beyond `stale_after` it blends
 //!   linearly, over `fallback_ramp`, towards a conservative default;
 //! - an anticipated floor ahead takes over around its arrival time
@@ -267,7 +270,7 @@ impl SurfaceTracker {
         }
         self.kind = Some(new_kind);
         self.mix = Some(view.present_mix());
-        self.anticipation = view.upcoming.and_then(|u| {
+        let fresh = view.upcoming.and_then(|u| {
             Anticipation::from_upcoming(
                 &u,
                 &self.camera,
@@ -277,6 +280,15 @@ impl SurfaceTracker {
                 self.config.anticipation_horizon_ns,
             )
         });
+        // A floor announced earlier that the view no longer shows has moved
+        // between the camera's nearest floor and the wheels (a narrow strip
+        // does): it stays announced until its arrival.
+        let still_coming = self
+            .anticipation
+            .is_some_and(|p| p.arrival.is_some_and(|a| a > t));
+        if fresh.is_some() || !still_coming {
+            self.anticipation = fresh;
+        }
         Ok(())
     }
 

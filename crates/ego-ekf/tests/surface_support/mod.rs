@@ -108,3 +108,29 @@ pub fn boundary_map(
         }
     })
 }
+
+/// A wood floor with a threshold strip `width` metres wide whose near edge is
+/// `near_edge` metres ahead of the axle; walls above `horizon_fraction`.
+pub fn strip_map(w: usize, h: usize, horizon_fraction: f64, near_edge: f64, width: f64) -> Vec<u8> {
+    let visible = |d: f64| d > OFFSET + 1e-6;
+    let lower = if visible(near_edge) {
+        row_fraction_of_distance(near_edge)
+    } else {
+        f64::INFINITY
+    };
+    let upper = if visible(near_edge + width) {
+        row_fraction_of_distance(near_edge + width)
+    } else {
+        f64::INFINITY
+    };
+    map(w, h, |_, y| {
+        let centre = (y as f64 + 0.5) / h as f64;
+        if centre < horizon_fraction {
+            WALL
+        } else if centre >= upper && centre <= lower {
+            STRIP
+        } else {
+            WOOD
+        }
+    })
+}
