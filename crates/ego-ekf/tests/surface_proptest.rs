@@ -214,10 +214,10 @@ proptest! {
         p in prop::array::uniform6(any_f32()),
         row in any_f32(),
     ) {
-        if let Ok(cam) = GroundCamera::new(p[0], p[1], p[2], p[3], p[4], p[5]) {
-            if let Some(d) = cam.ground_distance(row) {
-                prop_assert!(d.is_finite());
-            }
+        if let Ok(cam) = GroundCamera::new(p[0], p[1], p[2], p[3], p[4], p[5])
+            && let Some(d) = cam.ground_distance(row)
+        {
+            prop_assert!(d.is_finite());
         }
     }
 
