@@ -71,7 +71,7 @@ fn bench(c: &mut Criterion) {
             let t = Timestamp(1 + k * 4_000_000);
             let ctx = fed.jolt_context(t, 0.2);
             let p = fed.grip_params(t);
-            let dev = if k % 97 == 0 { 6.0 } else { 0.3 };
+            let dev = if k.is_multiple_of(97) { 6.0 } else { 0.3 };
             black_box((jolts.push(t, dev, &ctx).ok(), p))
         })
     });
