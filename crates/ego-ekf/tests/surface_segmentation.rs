@@ -235,3 +235,32 @@ fn config_is_checked() {
         Err(E::Fraction)
     );
 }
+
+#[test]
+fn class_table_lists_its_ground_ids() {
+    use ego_ekf::surface::{ClassConfig, ClassRole};
+    let c = classes();
+    let ground: Vec<(u8, SurfaceKind)> = c.ground_ids().collect();
+    assert_eq!(
+        ground,
+        vec![
+            (WOOD, SurfaceKind::Wood),
+            (CARPET, SurfaceKind::Carpet),
+            (TILE, SurfaceKind::Tile),
+            (CONCRETE, SurfaceKind::Concrete),
+            (STRIP, SurfaceKind::Threshold),
+        ]
+    );
+    assert_eq!(c.role(WALL), ClassRole::NotGround);
+    assert_eq!(c.role(UNKNOWN), ClassRole::Unknown);
+    assert_eq!(c.role(255), ClassRole::Unknown);
+    assert_eq!(c.ground_kind(WALL), None);
+    // A later entry for the same id wins; builders agree with lists.
+    let c = ClassConfig::new()
+        .with_ground(7, SurfaceKind::Tile)
+        .with_not_ground(7)
+        .with_ground(255, SurfaceKind::Carpet);
+    assert_eq!(c.role(7), ClassRole::NotGround);
+    assert_eq!(c.ground_kind(255), Some(SurfaceKind::Carpet));
+    assert_eq!(c.ground_ids().count(), 1);
+}
