@@ -2,6 +2,7 @@
 //! update's noise, gate and jolt threshold ([`GripParams`]).
 //!
 //! - [`classes`]: which class ids of the segmentation model are which floor;
+//! - [`mix`]: fractions of floor kinds (sum one), blended by weight;
 //! - [`segmentation`]: a label map -> floor fractions (bottom rows weighted
 //!   more, nothing above the horizon) and a floor change ahead;
 //! - [`grip_table`]: (floor, wheel type) -> grip -> [`GripParams`], blended by
