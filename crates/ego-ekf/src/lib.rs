@@ -16,3 +16,5 @@
 
 pub mod grip;
 pub use grip::{GripError, GripParams};
+pub mod events;
+pub mod surface;

@@ -1,0 +1,245 @@
+//! Surface awareness: segmentation map -> floor kinds -> grip -> the wheel
+//! update's noise, gate and jolt threshold ([`GripParams`]).
+//!
+//! - [`classes`]: which class ids of the segmentation model are which floor;
+//! - [`mix`]: fractions of floor kinds (sum one), blended by weight;
+//! - [`segmentation`]: a label map -> floor fractions (bottom rows weighted
+//!   more, nothing above the horizon) and a floor change ahead;
+//! - [`grip_table`]: (floor, wheel type) -> grip -> [`GripParams`], blended by
+//!   the fractions;
+//! - [`anticipation`]: image row -> floor distance -> arrival time;
+//! - [`tracker`]: the floor between maps, its age, staleness fallback and the
+//!   hand-over onto an anticipated floor;
+//! - [`learning`]: per-floor forward-noise multipliers learned from the NIS,
+//!   exported and restored as a checked record.
+//!
+//! [`SurfaceModel`] wires them together for the filter: call
+//! [`SurfaceModel::on_segmentation`] per map (2-5 Hz),
+//! [`SurfaceModel::grip_params`] per wheel update (and
+//! [`SurfaceModel::on_wheel_innovation`] after it), and
+//! [`SurfaceModel::jolt_context`] per IMU step for [`crate::events`].
+
+pub mod anticipation;
+pub mod classes;
+pub mod grip_table;
+pub mod learning;
+pub mod mix;
+pub mod segmentation;
+pub mod tracker;
+
+pub use anticipation::{Anticipation, CameraError, GroundCamera};
+pub use classes::{ClassConfig, ClassRole, SurfaceKind};
+pub use grip_table::{GripModel, GripTable, GripTableError, WheelType, lerp_params};
+pub use learning::{
+    FloorStats, LEARNED_RECORD_LEN, LearningConfig, LearningConfigError, NoiseLearner, RecordError,
+};
+pub use mix::SurfaceMix;
+pub use segmentation::{
+    GroundView, NoSurface, SegmentationConfig, SegmentationConfigError, Segmenter, UpcomingSurface,
+};
+pub use tracker::{SurfaceState, SurfaceTracker, TrackerConfig, TrackerConfigError};
+
+use core::fmt;
+
+use vslam_core::image::LabelView;
+use vslam_core::{Reject, Timestamp};
+
+use crate::events::JoltContext;
+use crate::grip::GripParams;
+
+/// Everything the surface model is configured with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceConfig {
+    /// The robot's drive wheels.
+    pub wheel: WheelType,
+    /// Class id -> floor kind.
+    pub classes: ClassConfig,
+    /// Horizon, row weights and bands of the label map.
+    pub segmentation: SegmentationConfig,
+    /// Grip per floor and wheel, and how grip becomes parameters.
+    pub table: GripTable,
+    /// Timing between maps.
+    pub tracker: TrackerConfig,
+    /// The forward camera over the floor.
+    pub camera: GroundCamera,
+    /// How the forward noise is learned.
+    pub learning: LearningConfig,
+    /// The conservative parameters used before any map and when stale.
+    pub fallback: GripParams,
+}
+
+impl SurfaceConfig {
+    /// Conservative parameters for an unknown floor: carpet-like grip and
+    /// noise, a wide gate, a moderate jolt threshold.
+    pub fn conservative_params() -> GripParams {
+        GripParams::new(0.6, 0.05, 0.01, 13.0, 3.5).unwrap_or_default()
+    }
+
+    /// Defaults for `wheel` and the given class table.
+    pub fn new(wheel: WheelType, classes: ClassConfig) -> Self {
+        SurfaceConfig {
+            wheel,
+            classes,
+            segmentation: SegmentationConfig::default(),
+            table: GripTable::default(),
+            tracker: TrackerConfig::default(),
+            camera: GroundCamera::default(),
+            learning: LearningConfig::default(),
+            fallback: SurfaceConfig::conservative_params(),
+        }
+    }
+}
+
+/// Why a segmentation map did not update the floor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapError {
+    /// The map holds no usable ground: the last floor is kept.
+    NoSurface(NoSurface),
+    /// The map's time stamp was refused (out of order, duplicate).
+    Rejected(Reject),
+}
+
+impl fmt::Display for MapError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MapError::NoSurface(n) => write!(f, "no surface information: {n}"),
+            MapError::Rejected(r) => write!(f, "segmentation map refused: {r}"),
+        }
+    }
+}
+
+impl core::error::Error for MapError {}
+
+/// The surface model the filter talks to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceModel {
+    wheel: WheelType,
+    segmenter: Segmenter,
+    table: GripTable,
+    tracker: SurfaceTracker,
+    learner: NoiseLearner,
+    fallback: GripParams,
+}
+
+impl SurfaceModel {
+    /// A model that has seen no map yet.
+    pub fn new(config: SurfaceConfig) -> Self {
+        SurfaceModel {
+            wheel: config.wheel,
+            segmenter: Segmenter::new(config.classes, config.segmentation),
+            table: config.table,
+            tracker: SurfaceTracker::new(config.tracker, config.camera),
+            learner: NoiseLearner::new(config.learning, config.wheel),
+            fallback: config.fallback,
+        }
+    }
+
+    /// Reads one segmentation map taken at `t` while the robot moved forward
+    /// at `forward_speed` m/s, and updates the floor.
+    pub fn on_segmentation(
+        &mut self,
+        t: Timestamp,
+        labels: &LabelView<'_>,
+        forward_speed: f32,
+    ) -> Result<GroundView, MapError> {
+        let view = self.segmenter.analyze(labels);
+        self.tracker
+            .on_map(t, view.as_ref().map_err(|e| *e), forward_speed)
+            .map_err(|r| match view {
+                Err(n) => MapError::NoSurface(n),
+                Ok(_) => MapError::Rejected(r),
+            })?;
+        view.map_err(MapError::NoSurface)
+    }
+
+    /// The floor in effect at `t`.
+    pub fn state_at(&self, t: Timestamp) -> SurfaceState {
+        self.tracker.state_at(t)
+    }
+
+    /// The wheel-update parameters at `t`: the grip table blended by the
+    /// floor fractions (with the learned noise), handed over onto an
+    /// anticipated floor, and blended towards the conservative fallback when
+    /// the floor is stale (fully before the first map).
+    pub fn grip_params(&self, t: Timestamp) -> GripParams {
+        self.params_for(&self.tracker.state_at(t))
+    }
+
+    fn params_for(&self, state: &SurfaceState) -> GripParams {
+        let Some(mix) = state.mix else {
+            return self.fallback;
+        };
+        let own = self
+            .table
+            .blended(&mix, self.wheel, &self.learner.multipliers());
+        lerp_params(&own, &self.fallback, state.fallback_weight)
+    }
+
+    /// Learns from one forward wheel innovation (see
+    /// [`NoiseLearner::observe`]) seen at `t`. Refused with
+    /// [`Reject::NotReady`] while the floor is unknown or stale.
+    pub fn on_wheel_innovation(
+        &mut self,
+        t: Timestamp,
+        forward: f32,
+        forward_var: f32,
+        gated: bool,
+    ) -> Result<(), Reject> {
+        let state = self.tracker.state_at(t);
+        match state.mix {
+            Some(mix) if !state.is_stale() => {
+                self.learner.observe(&mix, forward, forward_var, gated)
+            }
+            _ => Err(Reject::NotReady),
+        }
+    }
+
+    /// What the floor explains at `t`, for the jolt detector.
+    pub fn jolt_context(&self, t: Timestamp, forward_speed: f32) -> JoltContext {
+        let state = self.tracker.state_at(t);
+        let params = self.params_for(&state);
+        let strip = self
+            .table
+            .params(SurfaceKind::Threshold, self.wheel, 1.0)
+            .jolt_threshold();
+        JoltContext {
+            jolt_threshold: params.jolt_threshold(),
+            strip_threshold: strip.max(params.jolt_threshold()),
+            surface: state.dominant(),
+            last_crossing: self.tracker.last_crossing(t),
+            next_crossing: self.tracker.next_crossing(t),
+            forward_speed,
+        }
+    }
+
+    /// The learned state as a fixed-size record.
+    pub fn export_learned(&self) -> [u8; LEARNED_RECORD_LEN] {
+        self.learner.to_bytes()
+    }
+
+    /// Restores a learned record; on error nothing changes.
+    pub fn restore_learned(&mut self, bytes: &[u8]) -> Result<(), RecordError> {
+        self.learner.restore(bytes)
+    }
+
+    /// The wheel type.
+    pub fn wheel(&self) -> WheelType {
+        self.wheel
+    }
+    /// The segmenter.
+    pub fn segmenter(&self) -> &Segmenter {
+        &self.segmenter
+    }
+    /// The grip table.
+    pub fn table(&self) -> &GripTable {
+        &self.table
+    }
+    /// The tracker.
+    pub fn tracker(&self) -> &SurfaceTracker {
+        &self.tracker
+    }
+    /// The learner.
+    pub fn learner(&self) -> &NoiseLearner {
+        &self.learner
+    }
+}
