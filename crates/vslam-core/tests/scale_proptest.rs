@@ -185,15 +185,14 @@ proptest! {
                 }
                 Input::Camera(a, b, r, t, n, q, e) => {
                     let rot = Rot3::from_euler_angles(r[0], r[1], r[2]);
-                    if let Ok(m) = CameraMotion::new(Timestamp(*a), Timestamp(*b), rot, Vec3::from(*t), *n, *q, *e) {
-                        if let Ok(d) = p.push_camera(&m) {
-                            if let Ok(s) = d.scale {
-                                prop_assert!(s.scale.is_finite() && s.scale > 0.0, "{d:?}");
-                                prop_assert!(s.variance.is_finite() && s.variance > 0.0);
-                            }
-                            if let Some(s) = d.applied_scale {
-                                prop_assert!(s.is_finite() && s > 0.0);
-                            }
+                    let m = CameraMotion::new(Timestamp(*a), Timestamp(*b), rot, Vec3::from(*t), *n, *q, *e);
+                    if let Ok(d) = m.map_err(|_| ()).and_then(|m| p.push_camera(&m).map_err(|_| ())) {
+                        if let Ok(s) = d.scale {
+                            prop_assert!(s.scale.is_finite() && s.scale > 0.0, "{d:?}");
+                            prop_assert!(s.variance.is_finite() && s.variance > 0.0);
+                        }
+                        if let Some(s) = d.applied_scale {
+                            prop_assert!(s.is_finite() && s > 0.0);
                         }
                     }
                 }
