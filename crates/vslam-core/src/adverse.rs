@@ -333,35 +333,39 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         Ok(w.at)
     }
 
-    /// Rebuilds a memory from a record written by [`Self::export`].
+    /// Rebuilds a memory from a record written by [`Self::export`]. The
+    /// checks run in order: magic, version, grid shape, length, checksum,
+    /// settings.
     pub fn restore(bytes: &[u8]) -> Result<Self, AdverseError> {
-        let rec = bytes
-            .get(..Self::RECORD_LEN)
-            .ok_or(AdverseError::TooShort)?;
-        let mut r = Reader { buf: rec, at: 0 };
-        if r.take::<4>() != Some(MAGIC) {
+        let mut r = Reader { buf: bytes, at: 0 };
+        if r.take::<4>().ok_or(AdverseError::TooShort)? != MAGIC {
             return Err(AdverseError::BadMagic);
         }
         let [version, sensors, kinds, _] = r.take::<4>().ok_or(AdverseError::TooShort)?;
         if version != VERSION {
             return Err(AdverseError::UnsupportedVersion(version));
         }
-        let (body, crc) = rec.split_at(Self::RECORD_LEN - 4);
+        let w = r.u16().ok_or(AdverseError::TooShort)?;
+        let h = r.u16().ok_or(AdverseError::TooShort)?;
+        let s = r.u16().ok_or(AdverseError::TooShort)?;
+        let _ = r.u16().ok_or(AdverseError::TooShort)?;
+        let shape_ok = usize::from(sensors) == SensorKind::COUNT
+            && usize::from(kinds) == AdverseKind::COUNT
+            && usize::from(w) == W
+            && usize::from(h) == H
+            && usize::from(s) == SLOTS;
+        if !shape_ok {
+            return Err(AdverseError::ShapeMismatch);
+        }
+        let rec = bytes
+            .get(..Self::RECORD_LEN)
+            .ok_or(AdverseError::TooShort)?;
+        let (body, crc) = rec
+            .split_at_checked(Self::RECORD_LEN - 4)
+            .ok_or(AdverseError::TooShort)?;
         let crc_bytes: [u8; 4] = crc.try_into().map_err(|_| AdverseError::TooShort)?;
         if crc32fast::hash(body) != u32::from_le_bytes(crc_bytes) {
             return Err(AdverseError::BadChecksum);
-        }
-        let w = r.u16();
-        let h = r.u16();
-        let s = r.u16();
-        let _ = r.u16();
-        let shape_ok = usize::from(sensors) == SensorKind::COUNT
-            && usize::from(kinds) == AdverseKind::COUNT
-            && w.map(usize::from) == Some(W)
-            && h.map(usize::from) == Some(H)
-            && s.map(usize::from) == Some(SLOTS);
-        if !shape_ok {
-            return Err(AdverseError::ShapeMismatch);
         }
         let params = AdverseParams {
             cell_size: r.f32().ok_or(AdverseError::TooShort)?,
