@@ -13,6 +13,7 @@
 use core::fmt;
 
 use super::flow::{FlowStep, sensor_to_body};
+use super::robust::median_in_place;
 use crate::geometry::{Extrinsics, Vec2};
 use crate::time::Timestamp;
 
@@ -115,17 +116,6 @@ pub struct RawFlowEstimate {
     pub features: u16,
 }
 
-fn median(v: &mut [f32]) -> Option<f32> {
-    v.sort_unstable_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    let hi = *v.get(n / 2)?;
-    if n % 2 == 1 {
-        Some(hi)
-    } else {
-        Some(0.5 * (hi + *v.get(n / 2 - 1)?))
-    }
-}
-
 /// Component-wise median and MAD of the finite displacements (at most
 /// [`MAX_FEATURES`]); `None` when there are none.
 pub fn combine(features: &[FeatureMotion]) -> Option<RawFlowEstimate> {
@@ -140,13 +130,13 @@ pub fn combine(features: &[FeatureMotion]) -> Option<RawFlowEstimate> {
         *y = f.dy;
         n += 1;
     }
-    let mx = median(xs.get_mut(..n)?)?;
-    let my = median(ys.get_mut(..n)?)?;
+    let mx = median_in_place(xs.get_mut(..n)?)?;
+    let my = median_in_place(ys.get_mut(..n)?)?;
     for (x, y) in xs.iter_mut().zip(ys.iter_mut()).take(n) {
         *x = libm::fabsf(*x - mx);
         *y = libm::fabsf(*y - my);
     }
-    let mad = median(xs.get_mut(..n)?)? + median(ys.get_mut(..n)?)?;
+    let mad = median_in_place(xs.get_mut(..n)?)? + median_in_place(ys.get_mut(..n)?)?;
     Some(RawFlowEstimate {
         median_px: Vec2::new(mx, my),
         mad_px: mad,

@@ -99,11 +99,11 @@ impl<const N: usize> RobustScale<N> {
             *b = *v;
         }
         let vals = buf.get_mut(..n)?;
-        let med = median(vals)?;
+        let med = median_in_place(vals)?;
         for v in vals.iter_mut() {
             *v = libm::fabsf(*v - med);
         }
-        let mad = median(vals)?;
+        let mad = median_in_place(vals)?;
         let sigma = (MAD_TO_SIGMA * mad)
             .max(self.params.rel_floor * med)
             .max(f32::MIN_POSITIVE);
@@ -144,7 +144,8 @@ impl<const N: usize> RobustScale<N> {
     }
 }
 
-fn median(v: &mut [f32]) -> Option<f32> {
+/// Median of `v` (sorted in place, NaN sorted last by `total_cmp`); `None` when empty.
+pub fn median_in_place(v: &mut [f32]) -> Option<f32> {
     v.sort_unstable_by(|a, b| a.total_cmp(b));
     let n = v.len();
     let hi = *v.get(n / 2)?;
