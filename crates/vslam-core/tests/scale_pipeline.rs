@@ -248,6 +248,12 @@ fn spinning_in_place_is_slip_and_the_memory_learns_the_place() {
         .memory()
         .weight(SensorKind::Wheel, &here, Timestamp(1_500 * MS));
     assert!(w < 0.5, "{w}");
+    // Driving on from the same place: the learned weight lowers the wheels'
+    // confidence in the decision before any slip is seen again.
+    let d = drive(&mut p, 1_500, 1, 0.3, 1.0, 1.0, true);
+    assert!(d[0].wheel_weight < 0.5, "{:?}", d[0]);
+    assert_eq!(d[0].flow_weight, 1.0);
+    assert!(d[0].wheel.confidence <= d[0].wheel_weight);
     // The memory survives an export/restore into a fresh pipeline.
     let mut buf = vec![0u8; vslam_core::scale::pipeline::PipelineMemory::RECORD_LEN];
     p.memory().export(&mut buf).unwrap();

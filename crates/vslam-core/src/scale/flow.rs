@@ -11,6 +11,10 @@
 //! floor along its `+x`/`+y` axes; a chip that reports the floor's apparent
 //! motion instead is described by a mounting rotated by 180 degrees about z.
 //!
+//! Not modelled: the angular flow of body pitch and roll rates (PX4 subtracts
+//! the gyro's x/y rates); a wheeled robot on a floor has next to none, and
+//! over a frame interval they integrate to nearly zero.
+//!
 //! Reports land in a [`FlowWindow`] as [`FlowStep`]s (body-origin
 //! displacement, heading change, confidence over the report's own interval);
 //! raw-frame flow ([`super::raw_flow`]) produces the same steps.

@@ -1,6 +1,10 @@
 //! The IMU over one interval, as the slip check needs it: heading change
 //! from the gyro's body z rate and mean forward specific force.
 //!
+//! The forward specific force equals the forward acceleration on a level
+//! floor; on a slope it carries `g sin(pitch)`, which the slip check's
+//! acceleration tolerance must absorb (1.5 m/s^2 is about 9 degrees).
+//!
 //! Each sample's rate holds over the interval since the previous sample
 //! (zero-order hold backwards, as the EKF integrates); straddling samples are
 //! split in time.
