@@ -325,3 +325,33 @@ fn for_both<const A: usize, const B: usize>(
         }
     }
 }
+
+#[test]
+fn bad_settings_are_refused_by_name() {
+    use vslam_core::adverse::{AdverseError, AdverseParams};
+    use vslam_core::scale::PipelineConfigError;
+    let mut c = PipelineConfig::default();
+    c.slip.threshold = f32::NAN;
+    assert_eq!(
+        ScalePipeline::<4>::new(c).err(),
+        Some(PipelineConfigError::OutOfRange("slip.threshold"))
+    );
+    let mut c = PipelineConfig::default();
+    c.select.min_baseline = 0.0;
+    assert_eq!(
+        ScalePipeline::<4>::new(c).err(),
+        Some(PipelineConfigError::OutOfRange("select.min_baseline"))
+    );
+    let c = PipelineConfig {
+        adverse: AdverseParams {
+            cell_size: -1.0,
+            ..AdverseParams::default()
+        },
+        ..PipelineConfig::default()
+    };
+    assert_eq!(
+        ScalePipeline::<4>::new(c).err(),
+        Some(PipelineConfigError::Adverse(AdverseError::BadParams))
+    );
+    assert!(PipelineConfig::default().validate().is_ok());
+}

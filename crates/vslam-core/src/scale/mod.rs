@@ -23,7 +23,9 @@ pub mod slip;
 pub mod transactions;
 
 pub use camera::{CameraMotion, CameraMotionError};
-pub use pipeline::{ComposeScale, FrameDecision, PipelineConfig, ScalePipeline};
+pub use pipeline::{
+    ComposeScale, FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline,
+};
 pub use robust::{RobustEstimate, RobustScale};
 pub use select::{NoScale, ScaleEstimate, ScaleSource, SelectionMethod};
 pub use slip::{SlipCause, SlipReport};

@@ -114,6 +114,72 @@ impl Default for PipelineConfig {
     }
 }
 
+/// Why a pipeline configuration was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PipelineConfigError {
+    /// A setting is not finite or outside its range; names the setting.
+    OutOfRange(&'static str),
+    /// The adverse-memory settings were refused.
+    Adverse(AdverseError),
+}
+
+impl core::fmt::Display for PipelineConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            PipelineConfigError::OutOfRange(name) => write!(f, "setting `{name}` out of range"),
+            PipelineConfigError::Adverse(e) => write!(f, "adverse memory: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for PipelineConfigError {}
+
+impl PipelineConfig {
+    /// Checks every numeric setting (finite, in range).
+    pub fn validate(&self) -> Result<(), PipelineConfigError> {
+        let positive = |v: f32| v.is_finite() && v > 0.0;
+        let non_negative = |v: f32| v.is_finite() && v >= 0.0;
+        let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
+        let checks: [(bool, &'static str); 19] = [
+            (positive(self.wheel.k), "wheel.k"),
+            (non_negative(self.wheel.rel_sigma), "wheel.rel_sigma"),
+            (non_negative(self.wheel.floor_sigma), "wheel.floor_sigma"),
+            (positive(self.wheel.max_speed), "wheel.max_speed"),
+            (non_negative(self.flow.rel_sigma), "flow.rel_sigma"),
+            (non_negative(self.flow.floor_sigma), "flow.floor_sigma"),
+            (positive(self.slip.threshold), "slip.threshold"),
+            (non_negative(self.slip.min_path), "slip.min_path"),
+            (
+                unit(self.slip.min_flow_confidence),
+                "slip.min_flow_confidence",
+            ),
+            (
+                positive(self.slip.yaw_rate_tolerance),
+                "slip.yaw_rate_tolerance",
+            ),
+            (positive(self.slip.accel_tolerance), "slip.accel_tolerance"),
+            (unit(self.slip.spin_ratio), "slip.spin_ratio"),
+            (positive(self.select.min_baseline), "select.min_baseline"),
+            (
+                non_negative(self.select.camera_rel_sigma),
+                "select.camera_rel_sigma",
+            ),
+            (
+                unit(self.select.min_source_confidence),
+                "select.min_source_confidence",
+            ),
+            (positive(self.robust.gate_sigmas), "robust.gate_sigmas"),
+            (positive(self.robust.rel_floor), "robust.rel_floor"),
+            (positive(self.wheel_outlier_sigmas), "wheel_outlier_sigmas"),
+            (unit(self.min_wheel_coverage), "min_wheel_coverage"),
+        ];
+        match checks.iter().find(|(ok, _)| !ok) {
+            Some((_, name)) => Err(PipelineConfigError::OutOfRange(name)),
+            None => Ok(()),
+        }
+    }
+}
+
 /// The per-frame decision record.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameDecision {
@@ -164,14 +230,15 @@ pub struct ScalePipeline<const N: usize = 32> {
 }
 
 impl<const N: usize> ScalePipeline<N> {
-    /// A pipeline at the configured initial pose.
-    pub fn new(config: PipelineConfig) -> Result<Self, AdverseError> {
+    /// A pipeline at the configured initial pose, after [`PipelineConfig::validate`].
+    pub fn new(config: PipelineConfig) -> Result<Self, PipelineConfigError> {
+        config.validate()?;
         Ok(ScalePipeline {
             wheel: WheelWindow::new(config.wheel),
             flow: FlowWindow::new(config.flow),
             imu: ImuWindow::new(config.imu, config.imu_max_step_ns),
             robust: RobustScale::new(config.robust),
-            memory: AdverseMemory::new(config.adverse)?,
+            memory: AdverseMemory::new(config.adverse).map_err(PipelineConfigError::Adverse)?,
             trajectory: Trajectory::new(config.initial_body_pose, config.camera),
             camera_counts: SampleCounts::new(),
             last_camera: None,
