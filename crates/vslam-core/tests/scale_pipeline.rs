@@ -40,6 +40,20 @@ fn drive<const N: usize>(
     camera_factor: f32,
     flow: bool,
 ) -> Vec<FrameDecision> {
+    drive_with_wheel_yaw(p, t_ms, frames, v, wheel_factor, camera_factor, flow, 0.0)
+}
+
+/// As [`drive`], with the wheels also reporting a yaw rate (rad/s) the gyro does not see.
+fn drive_with_wheel_yaw<const N: usize>(
+    p: &mut ScalePipeline<N>,
+    t_ms: u64,
+    frames: u64,
+    v: f32,
+    wheel_factor: f32,
+    camera_factor: f32,
+    flow: bool,
+    wheel_yaw_rate: f32,
+) -> Vec<FrameDecision> {
     let mut out = Vec::new();
     for f in 0..frames {
         let t0 = t_ms + f * 100;
@@ -56,7 +70,7 @@ fn drive<const N: usize>(
                 t0: Timestamp(a),
                 t1: Timestamp(b),
                 translation: Vec3::new(dx * wheel_factor, 0.0, 0.0),
-                dyaw: 0.0,
+                dyaw: wheel_yaw_rate * 0.01,
                 path_length: dx * wheel_factor,
             })
             .unwrap();
@@ -354,4 +368,22 @@ fn bad_settings_are_refused_by_name() {
         Some(PipelineConfigError::Adverse(AdverseError::BadParams))
     );
     assert!(PipelineConfig::default().validate().is_ok());
+}
+
+#[test]
+fn wheel_yaw_the_gyro_does_not_see_is_slip() {
+    let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::SlipThreshold)).unwrap();
+    let calm = drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
+    assert!(calm.iter().all(|d| d.slip.yaw_rate_error.unwrap() < 1e-3));
+    // One wheel spins: the wheels report 1 rad/s of yaw, the gyro none.
+    let d = drive_with_wheel_yaw(&mut p, 1_000, 3, 0.3, 1.0, 1.0, true, 1.0);
+    for d in &d[1..] {
+        assert!(
+            (d.slip.yaw_rate_error.unwrap() - 1.0).abs() < 0.01,
+            "{:?}",
+            d.slip
+        );
+        assert_eq!(d.slip.cause, SlipCause::WheelVsGyro);
+        assert_eq!(d.scale.map(|s| s.source), Ok(ScaleSource::Flow));
+    }
 }
