@@ -216,6 +216,36 @@ pub struct FrameDecision {
 }
 
 /// The metric-scale pipeline; `N` is the number of recent poses kept.
+///
+/// ```
+/// use vslam_core::Timestamp;
+/// use vslam_core::geometry::{Extrinsics, Rot3, Vec3};
+/// use vslam_core::scale::{CameraMotion, PipelineConfig, ScalePipeline};
+/// use vslam_core::sensors::{FlowOptics, FlowSample, OdometryDelta};
+///
+/// let config = PipelineConfig {
+///     flow_optics: Some(FlowOptics::new(500.0, 0.02, Extrinsics::identity()).unwrap()),
+///     ..PipelineConfig::default()
+/// };
+/// let mut p: ScalePipeline<16> = ScalePipeline::new(config).unwrap();
+/// let ms = 1_000_000;
+/// let _ = p.push_flow(&FlowSample { t: Timestamp(0), ..FlowSample::default() });
+/// for k in 0..10u64 {
+///     let (a, b) = (Timestamp(k * 10 * ms), Timestamp((k + 1) * 10 * ms));
+///     let step = Vec3::new(0.003, 0.0, 0.0); // 0.3 m/s
+///     p.push_wheel(&OdometryDelta { t0: a, t1: b, translation: step, dyaw: 0.0, path_length: 0.003 })
+///         .unwrap();
+///     let flow = FlowSample { t: b, dx: 75, squal: 100, shutter: 0x200, ..FlowSample::default() };
+///     p.push_flow(&flow).unwrap();
+/// }
+/// // The camera saw 3 cm under a ceiling 2.5 m away: |t/d| = 0.012.
+/// let m = CameraMotion::new(Timestamp(0), Timestamp(100 * ms), Rot3::identity(),
+///     Vec3::new(0.012, 0.0, 0.0), 120, 0.9, 0.4).unwrap();
+/// let decision = p.push_camera(&m).unwrap();
+/// let s = decision.scale.unwrap();
+/// assert!((s.scale - 2.5).abs() < 0.01);
+/// assert!((p.body_pose().translation.vector.x - 0.03).abs() < 1e-3);
+/// ```
 #[derive(Clone, Debug)]
 pub struct ScalePipeline<const N: usize = 32> {
     config: PipelineConfig,

@@ -30,6 +30,16 @@ pub struct FeatureMotion {
 }
 
 impl FeatureMotion {
+    /// From a pixel speed (pixels/s) and direction (radians from the column
+    /// axis) held over `dt` seconds, as an LK tracker may report them.
+    pub fn from_speed_direction(speed: f32, direction: f32, dt: f32) -> Self {
+        let d = speed * dt;
+        FeatureMotion {
+            dx: d * libm::cosf(direction),
+            dy: d * libm::sinf(direction),
+        }
+    }
+
     /// Pixel speed over `dt` seconds (pixels/s); `None` for `dt <= 0`.
     pub fn speed(&self, dt: f32) -> Option<f32> {
         (dt > 0.0).then(|| libm::hypotf(self.dx, self.dy) / dt)
@@ -200,6 +210,9 @@ mod tests {
         assert!(st.confidence > 0.9);
         assert!((f[3].speed(0.5).unwrap() - 2.0 * libm::sqrtf(5.0)).abs() < 1e-5);
         assert!((f[3].direction() + libm::atan2f(1.0, 2.0)).abs() < 1e-6);
+        let back =
+            FeatureMotion::from_speed_direction(f[3].speed(0.5).unwrap(), f[3].direction(), 0.5);
+        assert!((back.dx - 2.0).abs() < 1e-5 && (back.dy + 1.0).abs() < 1e-5);
     }
 
     #[test]
