@@ -8,10 +8,13 @@
 //! - [`imu`]: gyro yaw and forward acceleration over an interval;
 //! - [`confidence`]: per-source confidences; [`slip`]: the slip check;
 //! - [`select`]: the five selection methods; [`robust`]: the running scale;
-//! - [`pipeline`]: [`ScalePipeline`], which wires it all per camera frame.
+//! - [`pipeline`]: [`ScalePipeline`], which wires it all per camera frame,
+//!   with its [`config`] and the per-frame [`decision`] record.
 
 pub mod camera;
 pub mod confidence;
+pub mod config;
+pub mod decision;
 pub mod flow;
 pub mod imu;
 pub mod interval;
