@@ -12,8 +12,11 @@
 //! (`t_BC` of the camera mounting), so `Tw / |T|` is the ceiling distance also
 //! while turning.
 //!
-//! Flow, after slip and outlier gating, is weighted by the adverse-event memory
-//! ([`crate::adverse`]), which the pipeline also fills with the events it sees.
+//! The wheel and flow confidences are multiplied by the sensors' weights from
+//! the adverse-event memory ([`crate::adverse`]) at the current position and
+//! time, and the pipeline fills that memory with the events it sees: wheel
+//! slip and outliers, wheels stuck while the robot moves, blank or stuck flow,
+//! a camera with zero confidence.
 
 use super::camera::CameraMotion;
 use super::confidence::{camera_confidence, wheel_confidence};
