@@ -6,7 +6,10 @@
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
 //!   not fused, and the counts);
-//! - the vision front end: [`image`] views.
+//! - the vision front end: [`image`] views;
+//! - metric scale: [`scale`] (transactions, slip, selection, running scale,
+//!   [`scale::ScalePipeline`]), [`adverse`] (where sensors went wrong) and
+//!   [`pose`] (trajectory composition).
 //!
 //! What it will not do: allocate, panic on data, read files or talk to a bus.
 //! Failure is a value: small error enums per operation.
@@ -21,9 +24,12 @@
     )
 )]
 
+pub mod adverse;
 pub mod geometry;
 pub mod image;
+pub mod pose;
 pub mod reject;
+pub mod scale;
 pub mod sensors;
 pub mod time;
 

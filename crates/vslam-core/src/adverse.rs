@@ -1,0 +1,429 @@
+//! Adverse-event memory: where and when each sensor misbehaved, so that its
+//! weight is lowered there before it misleads the estimate again (seed: the
+//! semantic information extractor and the weighting-factor component).
+//!
+//! Events (slip, outlier, blank, stuck readings) are recorded per sensor in a
+//! fixed grid of position cells (`W x H` cells of `cell_size` metres; positions
+//! beyond the grid wrap around, so the memory stays bounded) and time slots
+//! (`SLOTS` slots of `slot_ns`, cycling: with a 6 h slot and 4 slots, the slot
+//! is the quarter of the day). Each cell keeps a decaying event level in
+//! fixed point (`1.0` event = 256); levels decay by `decay_factor` per
+//! `decay_period_ns`. A sensor's weight in a cell is
+//! `1 / (1 + weight_per_event * max(0, events - 1))`: a single event is
+//! chance, repeated events lower the weight.
+//!
+//! The memory exports to and restores from a fixed-size, versioned,
+//! little-endian byte record ending in a CRC-32 (IEEE); corrupt records are
+//! typed errors.
+
+use core::fmt;
+
+use crate::geometry::Vec2;
+use crate::time::Timestamp;
+
+/// The sensors the memory tracks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum SensorKind {
+    /// Wheel odometry.
+    Wheel = 0,
+    /// Downward optical flow.
+    Flow = 1,
+    /// The upward camera.
+    Camera = 2,
+    /// The IMU.
+    Imu = 3,
+}
+
+impl SensorKind {
+    /// How many sensors.
+    pub const COUNT: usize = 4;
+    /// Every sensor, in slot order.
+    pub const ALL: [SensorKind; 4] = [
+        SensorKind::Wheel,
+        SensorKind::Flow,
+        SensorKind::Camera,
+        SensorKind::Imu,
+    ];
+}
+
+/// What went wrong.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum AdverseKind {
+    /// The wheels slipped.
+    Slip = 0,
+    /// The reading was an outlier against the other sources.
+    Outlier = 1,
+    /// The sensor saw nothing (blank floor, no features).
+    Blank = 2,
+    /// The reading did not change while the robot moved.
+    Stuck = 3,
+}
+
+impl AdverseKind {
+    /// How many kinds.
+    pub const COUNT: usize = 4;
+}
+
+/// Settings of the memory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdverseParams {
+    /// Side of a position cell, metres.
+    pub cell_size: f32,
+    /// Length of a time slot, nanoseconds.
+    pub slot_ns: u64,
+    /// Decay period, nanoseconds.
+    pub decay_period_ns: u64,
+    /// Level factor per decay period, `0..1`.
+    pub decay_factor: f32,
+    /// Weight loss per repeated event.
+    pub weight_per_event: f32,
+}
+
+impl Default for AdverseParams {
+    fn default() -> Self {
+        AdverseParams {
+            cell_size: 0.5,
+            slot_ns: 6 * 3600 * 1_000_000_000,
+            decay_period_ns: 24 * 3600 * 1_000_000_000,
+            decay_factor: 0.5,
+            weight_per_event: 0.5,
+        }
+    }
+}
+
+impl AdverseParams {
+    fn is_valid(&self) -> bool {
+        self.cell_size.is_finite()
+            && self.cell_size > 0.0
+            && self.slot_ns > 0
+            && self.decay_period_ns > 0
+            && self.decay_factor.is_finite()
+            && (0.0..=1.0).contains(&self.decay_factor)
+            && self.weight_per_event.is_finite()
+            && self.weight_per_event >= 0.0
+    }
+}
+
+/// Why the memory refused an operation or a record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdverseError {
+    /// The settings are not finite/positive.
+    BadParams,
+    /// The position is not finite.
+    NonFinitePosition,
+    /// The export buffer is shorter than the record.
+    BufferTooSmall,
+    /// The record is shorter than this memory's record.
+    TooShort,
+    /// The record does not start with the magic bytes.
+    BadMagic,
+    /// The record's version is not one this code reads.
+    UnsupportedVersion(u8),
+    /// The record's grid shape differs from this memory type's.
+    ShapeMismatch,
+    /// The checksum does not match the contents.
+    BadChecksum,
+}
+
+impl fmt::Display for AdverseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AdverseError::BadParams => f.write_str("adverse-memory settings out of range"),
+            AdverseError::NonFinitePosition => f.write_str("position not finite"),
+            AdverseError::BufferTooSmall => f.write_str("export buffer too small"),
+            AdverseError::TooShort => f.write_str("record too short"),
+            AdverseError::BadMagic => f.write_str("record magic mismatch"),
+            AdverseError::UnsupportedVersion(v) => write!(f, "unsupported record version {v}"),
+            AdverseError::ShapeMismatch => f.write_str("record grid shape mismatch"),
+            AdverseError::BadChecksum => f.write_str("record checksum mismatch"),
+        }
+    }
+}
+
+impl core::error::Error for AdverseError {}
+
+/// Magic bytes at the start of a record.
+pub const MAGIC: [u8; 4] = *b"TRAM";
+/// The record version this code writes and reads.
+pub const VERSION: u8 = 1;
+const HEADER_LEN: usize = 4 + 4 + 8 + 28 + 8;
+const TALLY_LEN: usize = SensorKind::COUNT * AdverseKind::COUNT * 4;
+const ONE_EVENT: f32 = 256.0;
+
+/// Bounded per-sensor event memory over a `W x H` grid and `SLOTS` time slots.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdverseMemory<const W: usize, const H: usize, const SLOTS: usize> {
+    params: AdverseParams,
+    levels: [[[[u16; SLOTS]; H]; W]; SensorKind::COUNT],
+    tallies: [[u32; AdverseKind::COUNT]; SensorKind::COUNT],
+    decayed_to: Option<Timestamp>,
+}
+
+/// A cell and slot address.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CellSlot {
+    /// Column (x), `0..W`.
+    pub ix: usize,
+    /// Row (y), `0..H`.
+    pub iy: usize,
+    /// Time slot, `0..SLOTS`.
+    pub slot: usize,
+}
+
+impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLOTS> {
+    /// Bytes of the exported record.
+    pub const RECORD_LEN: usize =
+        HEADER_LEN + TALLY_LEN + 2 * SensorKind::COUNT * W * H * SLOTS + 4;
+
+    /// An empty memory.
+    pub fn new(params: AdverseParams) -> Result<Self, AdverseError> {
+        if !params.is_valid() || W == 0 || H == 0 || SLOTS == 0 {
+            return Err(AdverseError::BadParams);
+        }
+        Ok(AdverseMemory {
+            params,
+            levels: [[[[0; SLOTS]; H]; W]; SensorKind::COUNT],
+            tallies: [[0; AdverseKind::COUNT]; SensorKind::COUNT],
+            decayed_to: None,
+        })
+    }
+
+    /// The settings.
+    pub fn params(&self) -> &AdverseParams {
+        &self.params
+    }
+
+    /// The cell and slot of a position (metres, world) and time.
+    pub fn cell_slot(&self, p: &Vec2, t: Timestamp) -> Result<CellSlot, AdverseError> {
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return Err(AdverseError::NonFinitePosition);
+        }
+        let cx = libm::floorf(p.x / self.params.cell_size);
+        let cy = libm::floorf(p.y / self.params.cell_size);
+        // Saturating float-to-int casts; wrap onto the grid.
+        let ix = (cx as i64).rem_euclid(W as i64) as usize;
+        let iy = (cy as i64).rem_euclid(H as i64) as usize;
+        let slot = ((t.0 / self.params.slot_ns) % SLOTS as u64) as usize;
+        Ok(CellSlot { ix, iy, slot })
+    }
+
+    fn periods_since_decay(&self, now: Timestamp) -> u64 {
+        self.decayed_to
+            .and_then(|d| now.nanos_since(d))
+            .map_or(0, |ns| ns / self.params.decay_period_ns)
+    }
+
+    /// Applies the decay up to `now` (earlier times change nothing).
+    pub fn decay_to(&mut self, now: Timestamp) {
+        let Some(d) = self.decayed_to else {
+            self.decayed_to = Some(now);
+            return;
+        };
+        let periods = self.periods_since_decay(now);
+        if periods == 0 {
+            return;
+        }
+        let f = libm::powf(self.params.decay_factor, periods.min(1 << 20) as f32);
+        for v in self.levels.iter_mut().flatten().flatten().flatten() {
+            *v = (f32::from(*v) * f) as u16;
+        }
+        let step = periods.saturating_mul(self.params.decay_period_ns);
+        self.decayed_to = d.checked_add_nanos(step).or(Some(now));
+    }
+
+    /// Records one event of `kind` for `sensor` at position `p` (world, metres) and time `t`.
+    pub fn record(
+        &mut self,
+        sensor: SensorKind,
+        kind: AdverseKind,
+        p: &Vec2,
+        t: Timestamp,
+    ) -> Result<(), AdverseError> {
+        let cs = self.cell_slot(p, t)?;
+        self.decay_to(t);
+        if let Some(v) = self.level_mut(sensor, cs) {
+            *v = v.saturating_add(ONE_EVENT as u16);
+        }
+        if let Some(c) = self
+            .tallies
+            .get_mut(sensor as usize)
+            .and_then(|r| r.get_mut(kind as usize))
+        {
+            *c = c.saturating_add(1);
+        }
+        Ok(())
+    }
+
+    fn level_mut(&mut self, sensor: SensorKind, cs: CellSlot) -> Option<&mut u16> {
+        self.levels
+            .get_mut(sensor as usize)?
+            .get_mut(cs.ix)?
+            .get_mut(cs.iy)?
+            .get_mut(cs.slot)
+    }
+
+    /// Decayed event count of `sensor` at `p` and `t`.
+    pub fn events(&self, sensor: SensorKind, p: &Vec2, t: Timestamp) -> f32 {
+        let Ok(cs) = self.cell_slot(p, t) else {
+            return 0.0;
+        };
+        let level = self
+            .levels
+            .get(sensor as usize)
+            .and_then(|g| g.get(cs.ix))
+            .and_then(|g| g.get(cs.iy))
+            .and_then(|g| g.get(cs.slot))
+            .copied()
+            .unwrap_or(0);
+        let periods = self.periods_since_decay(t).min(1 << 20);
+        f32::from(level) / ONE_EVENT * libm::powf(self.params.decay_factor, periods as f32)
+    }
+
+    /// The weight of `sensor` at `p` and `t`, `0..=1` (1 where nothing repeated).
+    pub fn weight(&self, sensor: SensorKind, p: &Vec2, t: Timestamp) -> f32 {
+        let n = self.events(sensor, p, t);
+        let excess = (n - 1.0).max(0.0);
+        1.0 / (1.0 + self.params.weight_per_event * excess)
+    }
+
+    /// Events ever recorded for `sensor` of `kind` (not decayed).
+    pub fn tally(&self, sensor: SensorKind, kind: AdverseKind) -> u32 {
+        self.tallies
+            .get(sensor as usize)
+            .and_then(|r| r.get(kind as usize))
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// Writes the record into `out` (at least [`Self::RECORD_LEN`] bytes);
+    /// returns the bytes written.
+    pub fn export(&self, out: &mut [u8]) -> Result<usize, AdverseError> {
+        let out = out
+            .get_mut(..Self::RECORD_LEN)
+            .ok_or(AdverseError::BufferTooSmall)?;
+        let mut w = Writer { buf: out, at: 0 };
+        w.put(&MAGIC);
+        w.put(&[
+            VERSION,
+            SensorKind::COUNT as u8,
+            AdverseKind::COUNT as u8,
+            0,
+        ]);
+        w.put(&(W as u16).to_le_bytes());
+        w.put(&(H as u16).to_le_bytes());
+        w.put(&(SLOTS as u16).to_le_bytes());
+        w.put(&0u16.to_le_bytes());
+        w.put(&self.params.cell_size.to_le_bytes());
+        w.put(&self.params.slot_ns.to_le_bytes());
+        w.put(&self.params.decay_period_ns.to_le_bytes());
+        w.put(&self.params.decay_factor.to_le_bytes());
+        w.put(&self.params.weight_per_event.to_le_bytes());
+        w.put(&self.decayed_to.map_or(u64::MAX, |t| t.0).to_le_bytes());
+        for c in self.tallies.iter().flatten() {
+            w.put(&c.to_le_bytes());
+        }
+        for v in self.levels.iter().flatten().flatten().flatten() {
+            w.put(&v.to_le_bytes());
+        }
+        let body_len = w.at;
+        let crc = crc32fast::hash(w.buf.get(..body_len).unwrap_or(&[]));
+        w.put(&crc.to_le_bytes());
+        Ok(w.at)
+    }
+
+    /// Rebuilds a memory from a record written by [`Self::export`]. The
+    /// checks run in order: magic, version, grid shape, length, checksum,
+    /// settings.
+    pub fn restore(bytes: &[u8]) -> Result<Self, AdverseError> {
+        let mut r = Reader { buf: bytes, at: 0 };
+        if r.take::<4>().ok_or(AdverseError::TooShort)? != MAGIC {
+            return Err(AdverseError::BadMagic);
+        }
+        let [version, sensors, kinds, _] = r.take::<4>().ok_or(AdverseError::TooShort)?;
+        if version != VERSION {
+            return Err(AdverseError::UnsupportedVersion(version));
+        }
+        let w = r.u16().ok_or(AdverseError::TooShort)?;
+        let h = r.u16().ok_or(AdverseError::TooShort)?;
+        let s = r.u16().ok_or(AdverseError::TooShort)?;
+        let _ = r.u16().ok_or(AdverseError::TooShort)?;
+        let shape_ok = usize::from(sensors) == SensorKind::COUNT
+            && usize::from(kinds) == AdverseKind::COUNT
+            && usize::from(w) == W
+            && usize::from(h) == H
+            && usize::from(s) == SLOTS;
+        if !shape_ok {
+            return Err(AdverseError::ShapeMismatch);
+        }
+        let rec = bytes
+            .get(..Self::RECORD_LEN)
+            .ok_or(AdverseError::TooShort)?;
+        let (body, crc) = rec
+            .split_at_checked(Self::RECORD_LEN - 4)
+            .ok_or(AdverseError::TooShort)?;
+        let crc_bytes: [u8; 4] = crc.try_into().map_err(|_| AdverseError::TooShort)?;
+        if crc32fast::hash(body) != u32::from_le_bytes(crc_bytes) {
+            return Err(AdverseError::BadChecksum);
+        }
+        let params = AdverseParams {
+            cell_size: r.f32().ok_or(AdverseError::TooShort)?,
+            slot_ns: r.u64().ok_or(AdverseError::TooShort)?,
+            decay_period_ns: r.u64().ok_or(AdverseError::TooShort)?,
+            decay_factor: r.f32().ok_or(AdverseError::TooShort)?,
+            weight_per_event: r.f32().ok_or(AdverseError::TooShort)?,
+        };
+        let mut m = AdverseMemory::new(params)?;
+        let decayed = r.u64().ok_or(AdverseError::TooShort)?;
+        m.decayed_to = (decayed != u64::MAX).then_some(Timestamp(decayed));
+        for c in m.tallies.iter_mut().flatten() {
+            *c = r.u32().ok_or(AdverseError::TooShort)?;
+        }
+        for v in m.levels.iter_mut().flatten().flatten().flatten() {
+            *v = r.u16().ok_or(AdverseError::TooShort)?;
+        }
+        Ok(m)
+    }
+}
+
+struct Writer<'a> {
+    buf: &'a mut [u8],
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn put(&mut self, bytes: &[u8]) {
+        let end = self.at.saturating_add(bytes.len());
+        if let Some(dst) = self.buf.get_mut(self.at..end) {
+            dst.copy_from_slice(bytes);
+            self.at = end;
+        }
+    }
+}
+
+struct Reader<'a> {
+    buf: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take<const K: usize>(&mut self) -> Option<[u8; K]> {
+        let end = self.at.checked_add(K)?;
+        let b: [u8; K] = self.buf.get(self.at..end)?.try_into().ok()?;
+        self.at = end;
+        Some(b)
+    }
+    fn u16(&mut self) -> Option<u16> {
+        self.take().map(u16::from_le_bytes)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        self.take().map(u32::from_le_bytes)
+    }
+    fn u64(&mut self) -> Option<u64> {
+        self.take().map(u64::from_le_bytes)
+    }
+    fn f32(&mut self) -> Option<f32> {
+        self.take().map(f32::from_le_bytes)
+    }
+}

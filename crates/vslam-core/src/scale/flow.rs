@@ -1,0 +1,356 @@
+//! The flow transaction `To`: downward optical-flow counts to metres.
+//!
+//! Per report (PixArt PMW3901MB / PAA5100JE; PX4 `OpticalFlow` fusion):
+//! counts to angle by `counts_per_radian`, angle to metres by the sensor's
+//! height above the floor, the sensor-plane displacement rotated into the
+//! body frame by the mounting `R_BS`, and the lever arm removed: a sensor at
+//! `r` from the body origin moves by `v + w x r`, so over a report the body
+//! origin moved `d_sensor - dyaw * (z x r)`.
+//!
+//! Sign convention: the counts are taken as the sensor's own motion over the
+//! floor along its `+x`/`+y` axes; a chip that reports the floor's apparent
+//! motion instead is described by a mounting rotated by 180 degrees about z.
+//!
+//! Not modelled: the angular flow of body pitch and roll rates (PX4 subtracts
+//! the gyro's x/y rates); a wheeled robot on a floor has next to none, and
+//! over a frame interval they integrate to nearly zero.
+//!
+//! Reports land in a [`FlowWindow`] as [`FlowStep`]s (body-origin
+//! displacement, heading change, confidence over the report's own interval);
+//! raw-frame flow ([`super::raw_flow`]) produces the same steps.
+
+use heapless::Deque;
+
+use super::confidence::{FlowConfidenceParams, flow_sample_confidence};
+use super::interval::{Coverage, overlap_fraction};
+use super::transactions::Transaction;
+use crate::geometry::{Extrinsics, Vec2, Vec3};
+use crate::reject::{Reject, SampleCounts};
+use crate::sensors::{FlowOptics, FlowSample};
+use crate::time::{SampleClock, Timestamp};
+
+/// The body's motion over one flow report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowStep {
+    /// Start of the report's interval.
+    pub t0: Timestamp,
+    /// End of the report's interval.
+    pub t1: Timestamp,
+    /// Displacement of the body origin, metres, body frame at `t0` (x, y).
+    pub d_body: Vec2,
+    /// Heading change used for the lever arm, radians.
+    pub dyaw: f32,
+    /// Confidence of the report, `0..=1`.
+    pub confidence: f32,
+}
+
+/// A sensor-plane displacement (metres, sensor x/y) to the body origin's
+/// displacement: rotated by the mounting, lever arm `dyaw * (z x t_BS)` removed.
+pub fn sensor_to_body(d_sensor: Vec2, mount: &Extrinsics, dyaw: f32) -> Vec2 {
+    let d_b = mount.vector_to_body(&Vec3::new(d_sensor.x, d_sensor.y, 0.0));
+    let r = mount.t_bs();
+    Vec2::new(d_b.x + dyaw * r.y, d_b.y - dyaw * r.x)
+}
+
+/// One report's counts to the sensor-plane displacement, metres.
+pub fn counts_to_metres(s: &FlowSample, optics: &FlowOptics) -> Vec2 {
+    Vec2::new(
+        optics.counts_to_metres(f32::from(s.dx)),
+        optics.counts_to_metres(f32::from(s.dy)),
+    )
+}
+
+/// Flow settings for the transaction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowParams {
+    /// Relative standard deviation of the path at full confidence.
+    pub rel_sigma: f32,
+    /// Standard deviation floor, metres.
+    pub floor_sigma: f32,
+    /// Longest accepted time between reports, nanoseconds (longer: `Gap`).
+    pub max_step_ns: u64,
+    /// Quality to confidence.
+    pub quality: FlowConfidenceParams,
+}
+
+impl Default for FlowParams {
+    fn default() -> Self {
+        FlowParams {
+            rel_sigma: 0.02,
+            floor_sigma: 0.0005,
+            max_step_ns: 100_000_000,
+            quality: FlowConfidenceParams::default(),
+        }
+    }
+}
+
+/// The flow over one interval, before the variance.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlowSummary {
+    /// `To`: path of the chosen body point, metres, uncovered time extrapolated.
+    pub path: f32,
+    /// Time-weighted mean report confidence.
+    pub confidence: f32,
+    /// Fraction of the interval covered by reports.
+    pub coverage: f32,
+    /// Reports that overlapped the interval.
+    pub samples: u16,
+    /// Overlapping reports with zero confidence (blank floor, invalid reports).
+    pub blank: u16,
+}
+
+/// A window of recent flow steps, queried per camera interval.
+#[derive(Clone, Debug)]
+pub struct FlowWindow<const N: usize> {
+    params: FlowParams,
+    steps: Deque<FlowStep, N>,
+    clock: SampleClock,
+    last_t1: Option<Timestamp>,
+    counts: SampleCounts,
+}
+
+impl<const N: usize> FlowWindow<N> {
+    /// An empty window.
+    pub fn new(params: FlowParams) -> Self {
+        FlowWindow {
+            params,
+            steps: Deque::new(),
+            clock: SampleClock::new(params.max_step_ns),
+            last_t1: None,
+            counts: SampleCounts::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn params(&self) -> &FlowParams {
+        &self.params
+    }
+
+    /// Fused and rejected reports by reason.
+    pub fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// Counts a report that was rejected before it reached the window.
+    pub fn count_rejected(&mut self, reason: Reject) {
+        self.counts.rejected_one(reason);
+    }
+
+    /// Time of the previous accepted report (start of the next one's interval).
+    pub fn last_report(&self) -> Option<Timestamp> {
+        self.clock.last()
+    }
+
+    /// Adds one report of the counting sensor; `dyaw` is the heading change
+    /// since the previous report (gyro or wheels). The first report only
+    /// anchors the interval ([`Reject::NotReady`]).
+    pub fn push_sample(
+        &mut self,
+        s: &FlowSample,
+        optics: &FlowOptics,
+        dyaw: f32,
+    ) -> Result<FlowStep, Reject> {
+        let r = self.sample_step(s, optics, dyaw);
+        if let Err(e) = r {
+            self.counts.rejected_one(e);
+        }
+        r
+    }
+
+    fn sample_step(
+        &mut self,
+        s: &FlowSample,
+        optics: &FlowOptics,
+        dyaw: f32,
+    ) -> Result<FlowStep, Reject> {
+        if !dyaw.is_finite() {
+            return Err(Reject::NonFinite);
+        }
+        let t0 = self.clock.last();
+        self.clock.accept(s.t)?.ok_or(Reject::NotReady)?;
+        let t0 = t0.ok_or(Reject::NotReady)?;
+        let d = counts_to_metres(s, optics);
+        let step = FlowStep {
+            t0,
+            t1: s.t,
+            d_body: sensor_to_body(d, optics.mount(), dyaw),
+            dyaw,
+            confidence: flow_sample_confidence(s, &self.params.quality),
+        };
+        self.push_step(&step)?;
+        Ok(step)
+    }
+
+    /// Adds a step made elsewhere (raw-frame flow); counted.
+    pub fn push_step(&mut self, step: &FlowStep) -> Result<(), Reject> {
+        let r = self.store(step);
+        self.counts.record(r);
+        r
+    }
+
+    fn store(&mut self, step: &FlowStep) -> Result<(), Reject> {
+        let finite = step.d_body.iter().all(|v| v.is_finite())
+            && step.dyaw.is_finite()
+            && step.confidence.is_finite();
+        if !finite {
+            return Err(Reject::NonFinite);
+        }
+        if step.t1 <= step.t0 {
+            return Err(Reject::Duplicate);
+        }
+        if let Some(last) = self.last_t1 {
+            if step.t1 == last {
+                return Err(Reject::Duplicate);
+            }
+            if step.t0 < last {
+                return Err(Reject::OutOfOrder);
+            }
+        }
+        if self.steps.is_full() {
+            self.steps.pop_front();
+        }
+        let _ = self.steps.push_back(*step);
+        self.last_t1 = Some(step.t1);
+        Ok(())
+    }
+
+    /// Sums the path of the body point `point_b` over `[t0, t1]`: each step's
+    /// body-origin displacement plus `dyaw * (z x p)`.
+    pub fn summarize(&self, t0: Timestamp, t1: Timestamp, point_b: &Vec3) -> FlowSummary {
+        let mut cov = Coverage::new(t0, t1);
+        let mut path = 0.0f32;
+        let mut conf = 0.0f32;
+        let mut weight = 0.0f32;
+        let mut samples = 0u16;
+        let mut blank = 0u16;
+        for st in self.steps.iter() {
+            let f = overlap_fraction(st.t0, st.t1, t0, t1);
+            if f <= 0.0 {
+                continue;
+            }
+            cov.add(st.t0, st.t1, t0, t1);
+            samples = samples.saturating_add(1);
+            if st.confidence <= 0.0 {
+                blank = blank.saturating_add(1);
+            }
+            let d = Vec2::new(
+                st.d_body.x - st.dyaw * point_b.y,
+                st.d_body.y + st.dyaw * point_b.x,
+            );
+            path += f * d.norm();
+            let w = f * st.t1.seconds_since(st.t0).unwrap_or(0.0);
+            conf += w * st.confidence.clamp(0.0, 1.0);
+            weight += w;
+        }
+        let coverage = cov.fraction();
+        let scale = if coverage > 0.0 { 1.0 / coverage } else { 0.0 };
+        FlowSummary {
+            path: path * scale,
+            confidence: if weight > 0.0 { conf / weight } else { 0.0 },
+            coverage,
+            samples,
+            blank,
+        }
+    }
+
+    /// The transaction `To` over `[t0, t1]` for the body point `point_b`.
+    pub fn transaction(
+        &self,
+        t0: Timestamp,
+        t1: Timestamp,
+        point_b: &Vec3,
+    ) -> (Transaction, FlowSummary) {
+        let s = self.summarize(t0, t1, point_b);
+        let confidence = (s.confidence * s.coverage).clamp(0.0, 1.0);
+        let t = Transaction {
+            metres: s.path,
+            variance: Transaction::variance_for(
+                s.path,
+                self.params.rel_sigma,
+                self.params.floor_sigma,
+                confidence,
+            ),
+            confidence,
+            coverage: s.coverage,
+        };
+        (t, s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Rot3;
+
+    fn optics(mount: Extrinsics) -> FlowOptics {
+        FlowOptics::new(500.0, 0.02, mount).unwrap()
+    }
+
+    fn sample(t: u64, dx: i16, dy: i16) -> FlowSample {
+        FlowSample {
+            t: Timestamp(t),
+            dx,
+            dy,
+            squal: 0x80,
+            shutter: 0x100,
+            ..FlowSample::default()
+        }
+    }
+
+    #[test]
+    fn counts_become_metres_in_the_body_frame() {
+        // Sensor x along body y.
+        let mount = Extrinsics::new(
+            Rot3::from_euler_angles(0.0, 0.0, core::f32::consts::FRAC_PI_2),
+            Vec3::zeros(),
+        )
+        .unwrap();
+        let o = optics(mount);
+        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        assert_eq!(
+            w.push_sample(&sample(0, 0, 0), &o, 0.0),
+            Err(Reject::NotReady)
+        );
+        let st = w.push_sample(&sample(10_000_000, 250, 0), &o, 0.0).unwrap();
+        // 250 counts / 500 per rad * 0.02 m = 0.01 m along body +y.
+        assert!((st.d_body - Vec2::new(0.0, 0.01)).norm() < 1e-6);
+    }
+
+    #[test]
+    fn lever_arm_of_yaw_is_removed() {
+        // Sensor 0.1 m ahead of the body origin; the robot turns in place by
+        // 0.05 rad: the sensor moves 0.005 m to the left, the body not at all.
+        let mount = Extrinsics::new(Rot3::identity(), Vec3::new(0.1, 0.0, 0.0)).unwrap();
+        let o = optics(mount);
+        let d = sensor_to_body(Vec2::new(0.0, 0.005), o.mount(), 0.05);
+        assert!(d.norm() < 1e-6);
+        // The same step, summed for a point 0.1 m ahead, is the sensor's motion again.
+        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        w.push_sample(&sample(0, 0, 0), &o, 0.0).unwrap_err();
+        w.push_sample(&sample(10, 0, 125), &o, 0.05).unwrap();
+        let s = w.summarize(Timestamp(0), Timestamp(10), &Vec3::new(0.1, 0.0, 0.0));
+        assert!((s.path - 0.005).abs() < 1e-6);
+        let s0 = w.summarize(Timestamp(0), Timestamp(10), &Vec3::zeros());
+        assert!(s0.path < 1e-6);
+    }
+
+    #[test]
+    fn low_quality_lowers_confidence_not_the_sample() {
+        let o = optics(Extrinsics::identity());
+        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let _ = w.push_sample(&sample(0, 0, 0), &o, 0.0);
+        w.push_sample(&sample(100, 100, 0), &o, 0.0).unwrap();
+        let dark = FlowSample {
+            squal: 0x10,
+            shutter: 0x1F40,
+            ..sample(200, 100, 0)
+        };
+        w.push_sample(&dark, &o, 0.0).unwrap();
+        let (t, s) = w.transaction(Timestamp(0), Timestamp(200), &Vec3::zeros());
+        assert_eq!(s.blank, 1);
+        assert!((t.confidence - 0.5).abs() < 1e-6);
+        assert!((t.metres - 0.008).abs() < 1e-6);
+        assert_eq!(w.counts().fused(), 2);
+        assert_eq!(w.counts().rejected(Reject::NotReady), 1);
+    }
+}

@@ -1,0 +1,157 @@
+//! Adverse-event memory: repeated events lower a sensor's weight in that
+//! cell and time slot only, levels decay, and the byte record round-trips
+//! with typed errors for corrupt data.
+
+use vslam_core::Timestamp;
+use vslam_core::adverse::{AdverseError, AdverseKind, AdverseMemory, AdverseParams, SensorKind};
+use vslam_core::geometry::Vec2;
+
+type M = AdverseMemory<8, 8, 4>;
+const HOUR: u64 = 3600 * 1_000_000_000;
+
+fn params() -> AdverseParams {
+    AdverseParams {
+        cell_size: 0.5,
+        slot_ns: 6 * HOUR,
+        decay_period_ns: 24 * HOUR,
+        decay_factor: 0.5,
+        weight_per_event: 0.5,
+    }
+}
+
+#[test]
+fn repeated_events_lower_the_weight_there_only() {
+    let mut m = M::new(params()).unwrap();
+    let carpet = Vec2::new(1.2, 0.7);
+    let t = Timestamp(HOUR);
+    m.record(SensorKind::Wheel, AdverseKind::Slip, &carpet, t)
+        .unwrap();
+    assert_eq!(
+        m.weight(SensorKind::Wheel, &carpet, t),
+        1.0,
+        "a single event is chance"
+    );
+    for k in 1..4 {
+        m.record(
+            SensorKind::Wheel,
+            AdverseKind::Slip,
+            &carpet,
+            Timestamp(HOUR + k),
+        )
+        .unwrap();
+    }
+    let w = m.weight(SensorKind::Wheel, &carpet, t);
+    assert!((w - 1.0 / (1.0 + 0.5 * 3.0)).abs() < 1e-6, "{w}");
+    // Same cell (0.5 m cells), another sensor, another cell, another slot: untouched.
+    assert!(m.weight(SensorKind::Wheel, &Vec2::new(1.4, 0.9), t) < 1.0);
+    assert_eq!(m.weight(SensorKind::Flow, &carpet, t), 1.0);
+    assert_eq!(m.weight(SensorKind::Wheel, &Vec2::new(2.2, 0.7), t), 1.0);
+    assert_eq!(
+        m.weight(SensorKind::Wheel, &carpet, Timestamp(7 * HOUR)),
+        1.0
+    );
+    assert_eq!(m.tally(SensorKind::Wheel, AdverseKind::Slip), 4);
+    assert_eq!(m.tally(SensorKind::Wheel, AdverseKind::Stuck), 0);
+    // Far positions wrap onto the grid (bounded memory): 8 cells of 0.5 m = 4 m.
+    assert!(m.weight(SensorKind::Wheel, &Vec2::new(1.2 + 4.0, 0.7 - 8.0), t) < 1.0);
+    assert_eq!(
+        m.record(
+            SensorKind::Wheel,
+            AdverseKind::Slip,
+            &Vec2::new(f32::NAN, 0.0),
+            t
+        ),
+        Err(AdverseError::NonFinitePosition)
+    );
+}
+
+#[test]
+fn levels_decay_over_time() {
+    let mut m = M::new(params()).unwrap();
+    let p = Vec2::new(0.1, 0.1);
+    for k in 0..5 {
+        m.record(SensorKind::Flow, AdverseKind::Blank, &p, Timestamp(k))
+            .unwrap();
+    }
+    assert!((m.events(SensorKind::Flow, &p, Timestamp(5)) - 5.0).abs() < 1e-3);
+    // One day later (same slot of the day): half the level.
+    let day = Timestamp(24 * HOUR + 5);
+    assert!((m.events(SensorKind::Flow, &p, day) - 2.5).abs() < 1e-2);
+    m.decay_to(day);
+    assert!((m.events(SensorKind::Flow, &p, day) - 2.5).abs() < 1e-2);
+    // Ten days later the weight is back to one.
+    assert_eq!(
+        m.weight(SensorKind::Flow, &p, Timestamp(240 * HOUR + 5)),
+        1.0
+    );
+}
+
+#[test]
+fn record_round_trips_and_corruption_is_typed() {
+    let mut m = M::new(params()).unwrap();
+    m.record(
+        SensorKind::Camera,
+        AdverseKind::Blank,
+        &Vec2::new(-3.0, 2.0),
+        Timestamp(9),
+    )
+    .unwrap();
+    m.record(
+        SensorKind::Wheel,
+        AdverseKind::Outlier,
+        &Vec2::new(1.0, 1.0),
+        Timestamp(10),
+    )
+    .unwrap();
+    let mut buf = vec![0u8; M::RECORD_LEN + 7];
+    assert_eq!(
+        m.export(&mut buf[..M::RECORD_LEN - 1]),
+        Err(AdverseError::BufferTooSmall)
+    );
+    let n = m.export(&mut buf).unwrap();
+    assert_eq!(n, M::RECORD_LEN);
+    assert_eq!(&buf[..4], b"TRAM");
+    assert_eq!(buf[4], 1, "version");
+    let back = M::restore(&buf[..n]).unwrap();
+    assert_eq!(back, m);
+
+    assert_eq!(M::restore(&buf[..n - 1]), Err(AdverseError::TooShort));
+    assert_eq!(M::restore(&buf[..3]), Err(AdverseError::TooShort));
+    let mut bad = buf.clone();
+    bad[0] = b'X';
+    assert_eq!(M::restore(&bad), Err(AdverseError::BadMagic));
+    let mut bad = buf.clone();
+    bad[4] = 2;
+    assert_eq!(M::restore(&bad), Err(AdverseError::UnsupportedVersion(2)));
+    let mut bad = buf.clone();
+    bad[100] ^= 1;
+    assert_eq!(M::restore(&bad), Err(AdverseError::BadChecksum));
+    // Another grid shape is refused as such.
+    assert_eq!(
+        AdverseMemory::<8, 8, 3>::restore(&buf),
+        Err(AdverseError::ShapeMismatch)
+    );
+    assert_eq!(
+        AdverseMemory::<4, 8, 4>::restore(&buf),
+        Err(AdverseError::ShapeMismatch)
+    );
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let bad = AdverseParams {
+        cell_size: 0.0,
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+    let bad = AdverseParams {
+        decay_factor: 1.5,
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+    let bad = AdverseParams {
+        slot_ns: 0,
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+}
