@@ -6,7 +6,8 @@
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
 //!   not fused, and the counts);
-//! - the vision front end: [`image`] views.
+//! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
+//!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`].
 //!
 //! What it will not do: allocate, panic on data, read files or talk to a bus.
 //! Failure is a value: small error enums per operation.
@@ -21,8 +22,11 @@
     )
 )]
 
+pub mod corners;
 pub mod geometry;
 pub mod image;
+pub mod lk;
+pub mod pyramid;
 pub mod reject;
 pub mod sensors;
 pub mod time;

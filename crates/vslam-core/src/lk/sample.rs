@@ -1,0 +1,132 @@
+//! Bilinear subpixel sampling of image windows.
+//!
+//! A window of `cols x rows` samples one pixel apart, whose top-left sample
+//! sits at the subpixel position `(x, y)`, reads the pixels
+//! `floor(x) ..= floor(x) + cols` and `floor(y) ..= floor(y) + rows`. All
+//! samples share the four weights of the fractional offset, so the check that
+//! the window is inside happens once, and each window row is two source row
+//! slices combined element-wise (no per-pixel bounds tests).
+
+use crate::image::ImageView;
+
+/// Where a window starts and the four bilinear weights of its fractional offset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bilinear {
+    x0: usize,
+    y0: usize,
+    cols: usize,
+    rows: usize,
+    w00: f32,
+    w01: f32,
+    w10: f32,
+    w11: f32,
+}
+
+impl Bilinear {
+    /// A `cols x rows` window with its top-left sample at `(x, y)`, or `None`
+    /// when any pixel it reads is outside `image` (or `x`, `y` are not finite).
+    pub fn new(image: &ImageView<'_>, x: f32, y: f32, cols: usize, rows: usize) -> Option<Self> {
+        // `x < width - cols` keeps `floor(x) + cols <= width - 1`; NaN fails every test.
+        let x_end = image.width() as f32 - cols as f32;
+        let y_end = image.height() as f32 - rows as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < x_end && y < y_end) {
+            return None;
+        }
+        let (fx, fy) = (libm::floorf(x), libm::floorf(y));
+        let (ax, ay) = (x - fx, y - fy);
+        let (x0, y0) = (fx as usize, fy as usize);
+        if x0 + cols >= image.width() || y0 + rows >= image.height() {
+            return None; // rounding at the edge of f32 precision
+        }
+        Some(Bilinear {
+            x0,
+            y0,
+            cols,
+            rows,
+            w00: (1.0 - ax) * (1.0 - ay),
+            w01: ax * (1.0 - ay),
+            w10: (1.0 - ax) * ay,
+            w11: ax * ay,
+        })
+    }
+
+    /// The four weights `(top-left, top-right, bottom-left, bottom-right)`.
+    pub fn weights(&self) -> [f32; 4] {
+        [self.w00, self.w01, self.w10, self.w11]
+    }
+
+    /// The source pixels of window row `i`: four slices of `cols` bytes
+    /// (top row, top row shifted by one, bottom row, bottom row shifted).
+    #[inline(always)]
+    pub fn source_rows<'a>(&self, image: &ImageView<'a>, i: usize) -> Option<[&'a [u8]; 4]> {
+        let top = image.row(self.y0 + i)?.get(self.x0..=self.x0 + self.cols)?;
+        let bottom = image
+            .row(self.y0 + i + 1)?
+            .get(self.x0..=self.x0 + self.cols)?;
+        Some([
+            top.get(..self.cols)?,
+            top.get(1..)?,
+            bottom.get(..self.cols)?,
+            bottom.get(1..)?,
+        ])
+    }
+
+    /// Samples the window into `out` (row-major, `cols` per row); `false`
+    /// when `out` is too short.
+    pub fn sample(&self, image: &ImageView<'_>, out: &mut [f32]) -> bool {
+        let Some(out) = out.get_mut(..self.cols * self.rows) else {
+            return false;
+        };
+        for (i, out_row) in out.chunks_exact_mut(self.cols).enumerate() {
+            let Some([a0, a1, b0, b1]) = self.source_rows(image, i) else {
+                return false;
+            };
+            let taps = a0.iter().zip(a1).zip(b0).zip(b1);
+            for (o, (((&p00, &p01), &p10), &p11)) in out_row.iter_mut().zip(taps) {
+                *o = self.w00 * f32::from(p00)
+                    + self.w01 * f32::from(p01)
+                    + self.w10 * f32::from(p10)
+                    + self.w11 * f32::from(p11);
+            }
+        }
+        true
+    }
+}
+
+/// Samples one pixel bilinearly, `None` outside the image.
+pub fn sample_pixel(image: &ImageView<'_>, x: f32, y: f32) -> Option<f32> {
+    let mut v = [0.0f32; 1];
+    let b = Bilinear::new(image, x, y, 1, 1)?;
+    b.sample(image, &mut v).then_some(v[0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolates_and_refuses_the_outside() {
+        // f(x, y) = 10 x + 3 y is reproduced exactly by bilinear interpolation.
+        let mut buf = [0u8; 6 * 5];
+        for y in 0..5 {
+            for x in 0..6 {
+                buf[y * 6 + x] = (10 * x + 3 * y) as u8;
+            }
+        }
+        let img = ImageView::packed(&buf, 6, 5).unwrap();
+        let v = sample_pixel(&img, 2.25, 1.5).unwrap();
+        assert!((v - (22.5 + 4.5)).abs() < 1e-4, "{v}");
+        let b = Bilinear::new(&img, 1.5, 0.5, 4, 3).unwrap();
+        let mut out = [0f32; 12];
+        assert!(b.sample(&img, &mut out));
+        assert!((out[4 + 2] - (10.0 * 3.5 + 3.0 * 1.5)).abs() < 1e-4);
+        // The last readable top-left for 4 columns is x < 2 (pixels 1..=5).
+        assert!(Bilinear::new(&img, 1.99, 0.0, 4, 3).is_some());
+        assert!(Bilinear::new(&img, 2.0, 0.0, 4, 3).is_none());
+        assert!(Bilinear::new(&img, -0.01, 0.0, 1, 1).is_none());
+        assert!(Bilinear::new(&img, f32::NAN, 0.0, 1, 1).is_none());
+        assert!(Bilinear::new(&img, 1.0, f32::INFINITY, 1, 1).is_none());
+        assert!(Bilinear::new(&img, 1e30, 1.0, 1, 1).is_none());
+        assert_eq!(sample_pixel(&img, 5.0, 0.0), None);
+    }
+}

@@ -1,0 +1,386 @@
+//! The per-point pyramidal iteration (Bouguet 2000, section 2.4) and the
+//! batch [`Tracker`].
+
+use crate::geometry::Vec2;
+use crate::image::ImageView;
+use crate::pyramid::Pyramid;
+
+use super::config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
+use super::sample::Bilinear;
+use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
+
+const AREA: usize = MAX_WINDOW * MAX_WINDOW;
+const PATCH: usize = (MAX_WINDOW + 2) * (MAX_WINDOW + 2);
+
+/// The template window of one point at one level: intensities, Scharr
+/// gradients and the inverse of the spatial gradient matrix `G`.
+struct Template {
+    n: usize,
+    t: [f32; AREA],
+    gx: [f32; AREA],
+    gy: [f32; AREA],
+    /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
+    g_inv: [f32; 3],
+}
+
+/// Why a template could not be built.
+enum TemplateFault {
+    OutOfBounds,
+    LowEigenvalue,
+}
+
+/// The sums one pass over the window yields.
+struct Mismatch {
+    /// `sum (T - J) gx`, `sum (T - J) gy`.
+    b: Vec2,
+    /// `sum |T - J|`.
+    abs: f32,
+}
+
+impl Template {
+    /// Samples the window of side `n` centred on `c` and its gradients.
+    fn new(image: &ImageView<'_>, c: Vec2, n: usize, min_eig: f32) -> Result<Self, TemplateFault> {
+        let half = (n / 2) as f32;
+        let m = n + 2;
+        let window = Bilinear::new(image, c.x - half - 1.0, c.y - half - 1.0, m, m)
+            .ok_or(TemplateFault::OutOfBounds)?;
+        let mut patch = [0.0f32; PATCH];
+        if !window.sample(image, &mut patch) {
+            return Err(TemplateFault::OutOfBounds);
+        }
+        let mut tpl = Template {
+            n,
+            t: [0.0; AREA],
+            gx: [0.0; AREA],
+            gy: [0.0; AREA],
+            g_inv: [0.0; 3],
+        };
+        let (mut gxx, mut gxy, mut gyy) = (0.0f32, 0.0f32, 0.0f32);
+        let patch_rows = patch.chunks_exact(m).take(m);
+        let triples = patch_rows
+            .clone()
+            .zip(patch_rows.clone().skip(1))
+            .zip(patch_rows.skip(2));
+        let outs = tpl
+            .t
+            .chunks_exact_mut(n)
+            .zip(tpl.gx.chunks_exact_mut(n))
+            .zip(tpl.gy.chunks_exact_mut(n));
+        for (((p0, p1), p2), ((t, gx), gy)) in triples.zip(outs) {
+            let taps = p0.windows(3).zip(p1.windows(3)).zip(p2.windows(3));
+            let out = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
+            for (((t, gx), gy), ((a, b), c)) in out.zip(taps) {
+                let (&[a0, a1, a2], &[b0, b1, b2], &[c0, c1, c2]) = (a, b, c) else {
+                    continue;
+                };
+                *t = b1;
+                let dx = (3.0 * (a2 - a0) + 10.0 * (b2 - b0) + 3.0 * (c2 - c0)) * (1.0 / 32.0);
+                let dy = (3.0 * (c0 - a0) + 10.0 * (c1 - a1) + 3.0 * (c2 - a2)) * (1.0 / 32.0);
+                *gx = dx;
+                *gy = dy;
+                gxx += dx * dx;
+                gxy += dx * dy;
+                gyy += dy * dy;
+            }
+        }
+        let area = (n * n) as f32;
+        let half_diff = 0.5 * (gxx - gyy);
+        let lambda_min = 0.5 * (gxx + gyy) - libm::sqrtf(half_diff * half_diff + gxy * gxy);
+        let det = gxx * gyy - gxy * gxy;
+        let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
+        if !well_conditioned {
+            return Err(TemplateFault::LowEigenvalue);
+        }
+        tpl.g_inv = [gyy / det, -gxy / det, gxx / det];
+        Ok(tpl)
+    }
+
+    /// One pass over the window centred on `c` in `image`: the right-hand
+    /// side `b` and the absolute error, or `None` when the window is outside.
+    #[inline]
+    fn mismatch(&self, image: &ImageView<'_>, c: Vec2) -> Option<Mismatch> {
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let window = Bilinear::new(image, c.x - half, c.y - half, n, n)?;
+        let [w00, w01, w10, w11] = window.weights();
+        // Per-column accumulators: each column sums independently, so the
+        // loop vectorises without reassociating a single float sum.
+        let mut acc_x = [0.0f32; MAX_WINDOW];
+        let mut acc_y = [0.0f32; MAX_WINDOW];
+        let mut acc_abs = [0.0f32; MAX_WINDOW];
+        let rows = self
+            .t
+            .chunks_exact(n)
+            .zip(self.gx.chunks_exact(n))
+            .zip(self.gy.chunks_exact(n))
+            .take(n);
+        for (i, ((t, gx), gy)) in rows.enumerate() {
+            let [a0, a1, b0, b1] = window.source_rows(image, i)?;
+            let src = a0.iter().zip(a1).zip(b0).zip(b1);
+            let tpl = t.iter().zip(gx).zip(gy);
+            let acc = acc_x
+                .iter_mut()
+                .zip(acc_y.iter_mut())
+                .zip(acc_abs.iter_mut());
+            for (((sx, sy), sa), (((&t, &gx), &gy), (((&p00, &p01), &p10), &p11))) in
+                acc.zip(tpl.zip(src))
+            {
+                let j = w00 * f32::from(p00)
+                    + w01 * f32::from(p01)
+                    + w10 * f32::from(p10)
+                    + w11 * f32::from(p11);
+                let d = t - j;
+                *sx += d * gx;
+                *sy += d * gy;
+                *sa += libm::fabsf(d);
+            }
+        }
+        Some(Mismatch {
+            b: Vec2::new(acc_x.iter().sum(), acc_y.iter().sum()),
+            abs: acc_abs.iter().sum(),
+        })
+    }
+
+    /// `G⁻¹ b`.
+    fn solve(&self, b: &Vec2) -> Vec2 {
+        let [a, o, c] = self.g_inv;
+        Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
+    }
+}
+
+/// What one directed pass (previous to next) found for one point.
+struct Pass {
+    position: Vec2,
+    status: TrackStatus,
+    residual: f32,
+    iterations: u32,
+}
+
+impl Pass {
+    fn lost(position: Vec2, reason: LostReason) -> Self {
+        Pass {
+            position,
+            status: TrackStatus::Lost(reason),
+            residual: f32::INFINITY,
+            iterations: 0,
+        }
+    }
+}
+
+/// A pyramidal Lucas-Kanade tracker with checked settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tracker {
+    config: LkConfig,
+}
+
+impl Tracker {
+    /// Checks `config`.
+    pub fn new(config: LkConfig) -> Result<Self, LkConfigError> {
+        config.validate()?;
+        Ok(Tracker { config })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &LkConfig {
+        &self.config
+    }
+
+    /// Tracks every point of `points` from `prev` into `next`, writing
+    /// `results[i]` for `points[i]`, and counts the outcomes.
+    pub fn track(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        points: &[Vec2],
+        results: &mut [TrackResult],
+    ) -> Result<TrackCounts, LkError> {
+        check_sizes(prev, next)?;
+        if results.len() < points.len() {
+            return Err(LkError::OutputTooSmall {
+                points: points.len(),
+                results: results.len(),
+            });
+        }
+        let mut counts = TrackCounts::default();
+        for (r, p) in results.iter_mut().zip(points) {
+            *r = self.track_checked(prev, next, *p, None);
+            counts.record(r.status);
+        }
+        Ok(counts)
+    }
+
+    /// [`Tracker::track`] with a predicted position in `next` for each point
+    /// (e.g. from odometry or a homography); `guesses` pairs with `points`.
+    pub fn track_with_guesses(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        points: &[Vec2],
+        guesses: &[Vec2],
+        results: &mut [TrackResult],
+    ) -> Result<TrackCounts, LkError> {
+        check_sizes(prev, next)?;
+        if results.len() < points.len() || guesses.len() < points.len() {
+            return Err(LkError::OutputTooSmall {
+                points: points.len(),
+                results: results.len().min(guesses.len()),
+            });
+        }
+        let mut counts = TrackCounts::default();
+        for ((r, p), g) in results.iter_mut().zip(points).zip(guesses) {
+            *r = self.track_checked(prev, next, *p, Some(*g));
+            counts.record(r.status);
+        }
+        Ok(counts)
+    }
+
+    /// Tracks one point; `guess` is its predicted position in `next`
+    /// (`None`: where it was).
+    pub fn track_point(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        point: Vec2,
+        guess: Option<Vec2>,
+    ) -> Result<TrackResult, LkError> {
+        check_sizes(prev, next)?;
+        Ok(self.track_checked(prev, next, point, guess))
+    }
+
+    fn track_checked(
+        &self,
+        prev: &Pyramid<'_>,
+        next: &Pyramid<'_>,
+        point: Vec2,
+        guess: Option<Vec2>,
+    ) -> TrackResult {
+        let guess = guess.unwrap_or(point);
+        let fwd = self.pass(prev, next, point, guess);
+        let mut result = TrackResult {
+            position: fwd.position,
+            status: fwd.status,
+            residual: fwd.residual,
+            fb_error: None,
+            iterations: fwd.iterations,
+        };
+        if let (Some(threshold), TrackStatus::Tracked) = (self.config.fb_threshold, fwd.status) {
+            let back = self.pass(next, prev, fwd.position, point);
+            let error = (back.position - point).norm();
+            let home = back.status.is_tracked() && error <= threshold;
+            result.fb_error = Some(if back.status.is_tracked() {
+                error
+            } else {
+                f32::INFINITY
+            });
+            if !home {
+                result.status = TrackStatus::Lost(LostReason::ForwardBackward);
+            }
+        }
+        result
+    }
+
+    /// One pass from `from` into `to`, starting at `guess` (level 0 pixels).
+    fn pass(&self, from: &Pyramid<'_>, to: &Pyramid<'_>, point: Vec2, guess: Vec2) -> Pass {
+        let cfg = &self.config;
+        let finite = |v: &Vec2| v.x.is_finite() && v.y.is_finite();
+        if !finite(&point) || !finite(&guess) {
+            return Pass::lost(guess, LostReason::InvalidPoint);
+        }
+        let levels = cfg.levels.min(from.levels()).min(to.levels()).max(1);
+        let eps_sq = cfg.epsilon * cfg.epsilon;
+        // The displacement guess at the current level.
+        let mut flow = (guess - point) / (1u32 << (levels - 1)) as f32;
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut template_l0 = None;
+        for level in (0..levels).rev() {
+            let scale = 1.0 / (1u32 << level) as f32;
+            let (Some(img_from), Some(img_to)) = (from.level(level), to.level(level)) else {
+                return Pass::lost(point + flow, LostReason::OutOfBounds);
+            };
+            let u = point * scale;
+            let tpl = match Template::new(&img_from, u, cfg.window, cfg.min_eigenvalue) {
+                Ok(t) => t,
+                Err(fault) => {
+                    if level == 0 {
+                        let reason = match fault {
+                            TemplateFault::OutOfBounds => LostReason::OutOfBounds,
+                            TemplateFault::LowEigenvalue => LostReason::LowEigenvalue,
+                        };
+                        return Pass::lost(point + flow, reason);
+                    }
+                    // Coarse levels that cannot help pass the guess down (as OpenCV).
+                    flow *= 2.0;
+                    continue;
+                }
+            };
+            let mut v = u + flow;
+            let mut previous_step = Vec2::zeros();
+            converged = false;
+            iterations = 0;
+            for k in 0..cfg.max_iterations {
+                let Some(m) = tpl.mismatch(&img_to, v) else {
+                    if level == 0 {
+                        return Pass::lost(v, LostReason::OutOfBounds);
+                    }
+                    break;
+                };
+                let step = tpl.solve(&m.b);
+                v += step;
+                iterations = k + 1;
+                if step.norm_squared() <= eps_sq {
+                    converged = true;
+                    break;
+                }
+                // A step that undoes the previous one: settle in the middle.
+                if k > 0 && (step + previous_step).norm_squared() <= eps_sq {
+                    v -= step * 0.5;
+                    converged = true;
+                    break;
+                }
+                previous_step = step;
+            }
+            flow = v - u;
+            if level > 0 {
+                flow *= 2.0;
+            } else {
+                template_l0 = Some(tpl);
+            }
+        }
+        let position = point + flow;
+        let Some(tpl) = template_l0 else {
+            return Pass::lost(position, LostReason::OutOfBounds);
+        };
+        if !finite(&position) {
+            return Pass::lost(position, LostReason::NotConverged);
+        }
+        let Some(base) = to.level(0) else {
+            return Pass::lost(position, LostReason::OutOfBounds);
+        };
+        let Some(m) = tpl.mismatch(&base, position) else {
+            return Pass::lost(position, LostReason::OutOfBounds);
+        };
+        let residual = m.abs / (cfg.window * cfg.window) as f32;
+        let status = if !converged {
+            TrackStatus::Lost(LostReason::NotConverged)
+        } else if residual > cfg.max_residual || residual.is_nan() {
+            TrackStatus::Lost(LostReason::LargeResidual)
+        } else {
+            TrackStatus::Tracked
+        };
+        Pass {
+            position,
+            status,
+            residual,
+            iterations,
+        }
+    }
+}
+
+fn check_sizes(prev: &Pyramid<'_>, next: &Pyramid<'_>) -> Result<(), LkError> {
+    let (a, b) = (prev.base(), next.base());
+    if a.width() != b.width() || a.height() != b.height() {
+        return Err(LkError::SizeMismatch);
+    }
+    Ok(())
+}
