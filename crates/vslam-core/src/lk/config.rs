@@ -24,6 +24,9 @@ pub struct LkConfig {
     /// Largest accepted residual (mean absolute difference, levels), `> 0`;
     /// `f32::INFINITY` disables the check.
     pub max_residual: f32,
+    /// After the translational pass, refine an affine warp of the window at
+    /// level 0 (more accurate under rotation and scale, about twice the cost).
+    pub affine_refinement: bool,
     /// Forward-backward threshold in pixels (`> 0`, finite), or `None` to skip
     /// the check (it doubles the cost).
     pub fb_threshold: Option<f32>,
@@ -31,8 +34,8 @@ pub struct LkConfig {
 
 impl Default for LkConfig {
     /// OpenCV's defaults (21x21, 3 levels, 30 iterations, 0.01 px), a
-    /// 0.1 (level/px)² eigenvalue floor, a residual limit of 30 levels, no
-    /// forward-backward check.
+    /// 0.1 (level/px)² eigenvalue floor, a residual limit of 30 levels, the
+    /// translational model only (as OpenCV), no forward-backward check.
     fn default() -> Self {
         LkConfig {
             window: 21,
@@ -41,6 +44,7 @@ impl Default for LkConfig {
             epsilon: 0.01,
             min_eigenvalue: 0.1,
             max_residual: 30.0,
+            affine_refinement: false,
             fb_threshold: None,
         }
     }

@@ -20,6 +20,11 @@
 //! tracks the result back into the previous image and rejects the point when
 //! it does not come home within a threshold.
 //!
+//! With [`LkConfig::affine_refinement`] the level-0 result is refined further
+//! with a 6-parameter affine warp of the window (Baker and Matthews 2004,
+//! inverse compositional), which removes the bias the translational model
+//! has under rotation and scale (see `affine`).
+//!
 //! No heap and no panic: windows up to [`MAX_WINDOW`]² live on the stack
 //! (about 13 KiB), results go into caller slices, any input point (NaN,
 //! infinite, far outside) yields a status.
@@ -27,6 +32,7 @@
 //! - [`sample`]: bilinear window sampling,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
+mod affine;
 mod config;
 pub mod sample;
 pub mod track;

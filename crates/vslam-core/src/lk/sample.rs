@@ -93,6 +93,48 @@ impl Bilinear {
     }
 }
 
+/// Samples a `cols x rows` window with its top-left sample at `(x, y)` into
+/// `out` (row-major), repeating the edge pixels outside the image (the slow
+/// path for windows that hang over the border of a coarse pyramid level).
+/// `false` when `x`, `y` are not finite or `out` is too short.
+pub fn sample_clamped(
+    image: &ImageView<'_>,
+    x: f32,
+    y: f32,
+    cols: usize,
+    rows: usize,
+    out: &mut [f32],
+) -> bool {
+    if !(x.is_finite() && y.is_finite()) {
+        return false;
+    }
+    let Some(out) = out.get_mut(..cols * rows) else {
+        return false;
+    };
+    let (w, h) = (image.width(), image.height());
+    let (wmax, hmax) = ((w - 1) as f32, (h - 1) as f32);
+    for (i, out_row) in out.chunks_exact_mut(cols).enumerate() {
+        let sy = (y + i as f32).clamp(0.0, hmax);
+        let fy = libm::floorf(sy);
+        let ay = sy - fy;
+        let y0 = fy as usize;
+        let (Some(top), Some(bottom)) = (image.row(y0), image.row((y0 + 1).min(h - 1))) else {
+            return false;
+        };
+        for (j, o) in out_row.iter_mut().enumerate() {
+            let sx = (x + j as f32).clamp(0.0, wmax);
+            let fx = libm::floorf(sx);
+            let ax = sx - fx;
+            let x0 = fx as usize;
+            let x1 = (x0 + 1).min(w - 1);
+            let p = |r: &[u8], c: usize| f32::from(r.get(c).copied().unwrap_or(0));
+            *o = (1.0 - ay) * ((1.0 - ax) * p(top, x0) + ax * p(top, x1))
+                + ay * ((1.0 - ax) * p(bottom, x0) + ax * p(bottom, x1));
+        }
+    }
+    true
+}
+
 /// Samples one pixel bilinearly, `None` outside the image.
 pub fn sample_pixel(image: &ImageView<'_>, x: f32, y: f32) -> Option<f32> {
     let mut v = [0.0f32; 1];

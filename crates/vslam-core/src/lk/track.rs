@@ -5,8 +5,9 @@ use crate::geometry::Vec2;
 use crate::image::ImageView;
 use crate::pyramid::Pyramid;
 
+use super::affine;
 use super::config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
-use super::sample::Bilinear;
+use super::sample::{Bilinear, sample_clamped};
 use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
 
 const AREA: usize = MAX_WINDOW * MAX_WINDOW;
@@ -14,11 +15,11 @@ const PATCH: usize = (MAX_WINDOW + 2) * (MAX_WINDOW + 2);
 
 /// The template window of one point at one level: intensities, Scharr
 /// gradients and the inverse of the spatial gradient matrix `G`.
-struct Template {
-    n: usize,
-    t: [f32; AREA],
-    gx: [f32; AREA],
-    gy: [f32; AREA],
+pub(super) struct Template {
+    pub(super) n: usize,
+    pub(super) t: [f32; AREA],
+    pub(super) gx: [f32; AREA],
+    pub(super) gy: [f32; AREA],
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
 }
@@ -39,13 +40,24 @@ struct Mismatch {
 
 impl Template {
     /// Samples the window of side `n` centred on `c` and its gradients.
-    fn new(image: &ImageView<'_>, c: Vec2, n: usize, min_eig: f32) -> Result<Self, TemplateFault> {
+    /// With `clamp`, a window hanging over the border repeats the edge pixels
+    /// (the centre must still be inside); without, it is out of bounds.
+    fn new(
+        image: &ImageView<'_>,
+        c: Vec2,
+        n: usize,
+        min_eig: f32,
+        clamp: bool,
+    ) -> Result<Self, TemplateFault> {
         let half = (n / 2) as f32;
         let m = n + 2;
-        let window = Bilinear::new(image, c.x - half - 1.0, c.y - half - 1.0, m, m)
-            .ok_or(TemplateFault::OutOfBounds)?;
+        let (x, y) = (c.x - half - 1.0, c.y - half - 1.0);
         let mut patch = [0.0f32; PATCH];
-        if !window.sample(image, &mut patch) {
+        let sampled = match Bilinear::new(image, x, y, m, m) {
+            Some(window) => window.sample(image, &mut patch),
+            None => clamp && inside(image, c) && sample_clamped(image, x, y, m, m, &mut patch),
+        };
+        if !sampled {
             return Err(TemplateFault::OutOfBounds);
         }
         let mut tpl = Template {
@@ -98,10 +110,16 @@ impl Template {
     /// One pass over the window centred on `c` in `image`: the right-hand
     /// side `b` and the absolute error, or `None` when the window is outside.
     #[inline]
-    fn mismatch(&self, image: &ImageView<'_>, c: Vec2) -> Option<Mismatch> {
+    fn mismatch(&self, image: &ImageView<'_>, c: Vec2, clamp: bool) -> Option<Mismatch> {
         let n = self.n;
         let half = (n / 2) as f32;
-        let window = Bilinear::new(image, c.x - half, c.y - half, n, n)?;
+        let Some(window) = Bilinear::new(image, c.x - half, c.y - half, n, n) else {
+            return if clamp && inside(image, c) {
+                self.mismatch_clamped(image, c)
+            } else {
+                None
+            };
+        };
         let [w00, w01, w10, w11] = window.weights();
         // Per-column accumulators: each column sums independently, so the
         // loop vectorises without reassociating a single float sum.
@@ -139,6 +157,28 @@ impl Template {
             b: Vec2::new(acc_x.iter().sum(), acc_y.iter().sum()),
             abs: acc_abs.iter().sum(),
         })
+    }
+
+    /// [`Template::mismatch`] for a window over the border (slow path).
+    fn mismatch_clamped(&self, image: &ImageView<'_>, c: Vec2) -> Option<Mismatch> {
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let mut j = [0.0f32; AREA];
+        if !sample_clamped(image, c.x - half, c.y - half, n, n, &mut j) {
+            return None;
+        }
+        let mut m = Mismatch {
+            b: Vec2::zeros(),
+            abs: 0.0,
+        };
+        let area = n * n;
+        let pixels = self.t.iter().zip(&self.gx).zip(&self.gy).zip(&j).take(area);
+        for (((t, gx), gy), j) in pixels {
+            let d = t - j;
+            m.b += Vec2::new(d * gx, d * gy);
+            m.abs += libm::fabsf(d);
+        }
+        Some(m)
     }
 
     /// `G⁻¹ b`.
@@ -299,7 +339,10 @@ impl Tracker {
                 return Pass::lost(point + flow, LostReason::OutOfBounds);
             };
             let u = point * scale;
-            let tpl = match Template::new(&img_from, u, cfg.window, cfg.min_eigenvalue) {
+            // Coarse levels let windows hang over the border (as OpenCV's padded
+            // pyramids do); level 0 demands the whole window inside.
+            let clamp = level > 0;
+            let tpl = match Template::new(&img_from, u, cfg.window, cfg.min_eigenvalue, clamp) {
                 Ok(t) => t,
                 Err(fault) => {
                     if level == 0 {
@@ -319,7 +362,7 @@ impl Tracker {
             converged = false;
             iterations = 0;
             for k in 0..cfg.max_iterations {
-                let Some(m) = tpl.mismatch(&img_to, v) else {
+                let Some(m) = tpl.mismatch(&img_to, v, clamp) else {
                     if level == 0 {
                         return Pass::lost(v, LostReason::OutOfBounds);
                     }
@@ -347,7 +390,7 @@ impl Tracker {
                 template_l0 = Some(tpl);
             }
         }
-        let position = point + flow;
+        let mut position = point + flow;
         let Some(tpl) = template_l0 else {
             return Pass::lost(position, LostReason::OutOfBounds);
         };
@@ -357,10 +400,21 @@ impl Tracker {
         let Some(base) = to.level(0) else {
             return Pass::lost(position, LostReason::OutOfBounds);
         };
-        let Some(m) = tpl.mismatch(&base, position) else {
-            return Pass::lost(position, LostReason::OutOfBounds);
+        let residual = if cfg.affine_refinement && converged {
+            let Some(fit) = affine::refine(&tpl, &base, position, cfg.max_iterations, cfg.epsilon)
+            else {
+                return Pass::lost(position, LostReason::OutOfBounds);
+            };
+            position = fit.center;
+            converged = fit.converged;
+            iterations += fit.iterations;
+            fit.residual
+        } else {
+            let Some(m) = tpl.mismatch(&base, position, false) else {
+                return Pass::lost(position, LostReason::OutOfBounds);
+            };
+            m.abs / (cfg.window * cfg.window) as f32
         };
-        let residual = m.abs / (cfg.window * cfg.window) as f32;
         let status = if !converged {
             TrackStatus::Lost(LostReason::NotConverged)
         } else if residual > cfg.max_residual || residual.is_nan() {
@@ -375,6 +429,14 @@ impl Tracker {
             iterations,
         }
     }
+}
+
+/// `c` lies inside the image (pixel centres `0..=width-1`).
+fn inside(image: &ImageView<'_>, c: Vec2) -> bool {
+    c.x >= 0.0
+        && c.y >= 0.0
+        && c.x <= (image.width() - 1) as f32
+        && c.y <= (image.height() - 1) as f32
 }
 
 fn check_sizes(prev: &Pyramid<'_>, next: &Pyramid<'_>) -> Result<(), LkError> {
