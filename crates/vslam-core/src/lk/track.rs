@@ -304,7 +304,8 @@ impl Tracker {
             iterations: fwd.iterations,
         };
         if let (Some(threshold), TrackStatus::Tracked) = (self.config.fb_threshold, fwd.status) {
-            let back = self.pass(next, prev, fwd.position, point);
+            // Tracked back from where it landed, without a hint of the answer.
+            let back = self.pass(next, prev, fwd.position, fwd.position);
             let error = (back.position - point).norm();
             let home = back.status.is_tracked() && error <= threshold;
             result.fb_error = Some(if back.status.is_tracked() {

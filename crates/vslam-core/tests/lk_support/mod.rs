@@ -183,3 +183,56 @@ pub fn median(v: &mut [f64]) -> f64 {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
+
+/// A smooth random texture (white noise blurred twice by a 5x5 box, stretched
+/// to 20..235), seeded.
+pub fn texture(width: usize, height: usize, seed: u64) -> Gray {
+    let mut state = seed
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(1_442_695_040_888_963_407);
+    let mut noise: Vec<f64> = (0..width * height)
+        .map(|_| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 33) % 256) as f64
+        })
+        .collect();
+    for _ in 0..2 {
+        let src = noise.clone();
+        for y in 0..height {
+            for x in 0..width {
+                let mut s = 0.0;
+                let mut k = 0.0;
+                for yy in y.saturating_sub(2)..(y + 3).min(height) {
+                    for xx in x.saturating_sub(2)..(x + 3).min(width) {
+                        s += src[yy * width + xx];
+                        k += 1.0;
+                    }
+                }
+                noise[y * width + x] = s / k;
+            }
+        }
+    }
+    let (lo, hi) = noise
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+    let data = noise
+        .iter()
+        .map(|v| (20.0 + 215.0 * (v - lo) / (hi - lo).max(1e-9)).round() as u8)
+        .collect();
+    Gray {
+        data,
+        width,
+        height,
+    }
+}
+
+/// The image moved by `(dx, dy)`: a point `p` appears at `p + (dx, dy)`.
+pub fn shifted(img: &Gray, dx: f64, dy: f64) -> Gray {
+    img.warp(&Homography([
+        [1.0, 0.0, dx],
+        [0.0, 1.0, dy],
+        [0.0, 0.0, 1.0],
+    ]))
+}
