@@ -148,3 +148,35 @@ fn larger_motion_needs_the_pyramid() {
         "one level should fail on a 14 px motion: {med1} px, {tracked1}"
     );
 }
+
+#[test]
+#[ignore]
+fn iteration_stats() {
+    let first = load("camera.png").crop_centre(W, H);
+    let second = first.warp(&rotation_scale_shift_perspective());
+    let mut st_a = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+    let mut st_b = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+    let (va, vb) = (first.view(), second.view());
+    let pa = Pyramid::build(&va, 3, &mut st_a).unwrap();
+    let pb = Pyramid::build(&vb, 3, &mut st_b).unwrap();
+    let cc = CornerConfig {
+        min_distance: 8.0,
+        border: 16,
+        ..CornerConfig::default()
+    };
+    let mut scratch = vec![0f32; scratch_len(W, H, 3)];
+    let mut corners = [Corner::default(); 100];
+    let n = detect_corners(&va, &cc, &mut scratch, &mut corners).unwrap();
+    let points: Vec<Vec2> = corners[..n].iter().map(Corner::position).collect();
+    for levels in [1, 2, 3] {
+        let mut results = vec![TrackResult::default(); n];
+        let t = Tracker::new(LkConfig {
+            levels,
+            ..LkConfig::default()
+        })
+        .unwrap();
+        t.track(&pa, &pb, &points, &mut results).unwrap();
+        let its: Vec<u32> = results.iter().map(|r| r.iterations).collect();
+        println!("levels {levels}: level-0 iterations {:?}", its);
+    }
+}

@@ -9,6 +9,8 @@
 
 use crate::image::ImageView;
 
+use super::config::MAX_WINDOW;
+
 /// Where a window starts and the four bilinear weights of its fractional offset.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bilinear {
@@ -20,6 +22,8 @@ pub struct Bilinear {
     w01: f32,
     w10: f32,
     w11: f32,
+    ax: f32,
+    ay: f32,
 }
 
 impl Bilinear {
@@ -47,6 +51,8 @@ impl Bilinear {
             w01: ax * (1.0 - ay),
             w10: (1.0 - ax) * ay,
             w11: ax * ay,
+            ax,
+            ay,
         })
     }
 
@@ -71,12 +77,64 @@ impl Bilinear {
         ])
     }
 
+    /// The vertical fraction: window row `i` is `h(i) + ay (h(i+1) - h(i))`
+    /// of the [`Bilinear::horizontal`] rows.
+    pub fn ay(&self) -> f32 {
+        self.ay
+    }
+
+    /// Source row `y0 + i` interpolated horizontally: `cols` values into
+    /// `out`. Converting the bytes first and interpolating after keeps both
+    /// loops simple enough to vectorise; consecutive window rows share these.
+    #[inline(always)]
+    pub fn horizontal(&self, image: &ImageView<'_>, i: usize, out: &mut [f32]) -> Option<()> {
+        let src = image.row(self.y0 + i)?.get(self.x0..=self.x0 + self.cols)?;
+        let mut wide = [0.0f32; WIDE];
+        let Some(wide) = wide.get_mut(..src.len()) else {
+            // Wider than the stack row: the direct formula.
+            let pairs = src.iter().zip(src.get(1..)?);
+            for (o, (&a, &b)) in out.iter_mut().zip(pairs) {
+                let (a, b) = (f32::from(a), f32::from(b));
+                *o = a + self.ax * (b - a);
+            }
+            return Some(());
+        };
+        for (w, &s) in wide.iter_mut().zip(src) {
+            *w = f32::from(s);
+        }
+        let (left, right) = (wide.get(..self.cols)?, wide.get(1..)?);
+        for ((o, &a), &b) in out.iter_mut().zip(left).zip(right) {
+            *o = a + self.ax * (b - a);
+        }
+        Some(())
+    }
+
     /// Samples the window into `out` (row-major, `cols` per row); `false`
     /// when `out` is too short.
     pub fn sample(&self, image: &ImageView<'_>, out: &mut [f32]) -> bool {
         let Some(out) = out.get_mut(..self.cols * self.rows) else {
             return false;
         };
+        if self.cols < WIDE {
+            let (mut top, mut bottom) = ([0.0f32; WIDE], [0.0f32; WIDE]);
+            let (Some(t), Some(b)) = (top.get_mut(..self.cols), bottom.get_mut(..self.cols)) else {
+                return false;
+            };
+            let (mut t, mut b) = (t, b);
+            if self.horizontal(image, 0, t).is_none() {
+                return false;
+            }
+            for (i, out_row) in out.chunks_exact_mut(self.cols).enumerate() {
+                if self.horizontal(image, i + 1, b).is_none() {
+                    return false;
+                }
+                for ((o, &h0), &h1) in out_row.iter_mut().zip(t.iter()).zip(b.iter()) {
+                    *o = h0 + self.ay * (h1 - h0);
+                }
+                core::mem::swap(&mut t, &mut b);
+            }
+            return true;
+        }
         for (i, out_row) in out.chunks_exact_mut(self.cols).enumerate() {
             let Some([a0, a1, b0, b1]) = self.source_rows(image, i) else {
                 return false;
@@ -93,10 +151,14 @@ impl Bilinear {
     }
 }
 
+/// Longest source row [`Bilinear::horizontal`] converts on the stack.
+const WIDE: usize = MAX_WINDOW + 3;
+
 /// Samples a `cols x rows` window with its top-left sample at `(x, y)` into
 /// `out` (row-major), repeating the edge pixels outside the image (the slow
 /// path for windows that hang over the border of a coarse pyramid level).
-/// `false` when `x`, `y` are not finite or `out` is too short.
+/// `false` when `x`, `y` are not finite, `out` is too short or `cols` exceeds
+/// `MAX_WINDOW + 3`.
 pub fn sample_clamped(
     image: &ImageView<'_>,
     x: f32,
@@ -113,6 +175,19 @@ pub fn sample_clamped(
     };
     let (w, h) = (image.width(), image.height());
     let (wmax, hmax) = ((w - 1) as f32, (h - 1) as f32);
+    // Column taps once for all rows: left pixel, right pixel, fraction.
+    let mut taps = [(0usize, 0usize, 0.0f32); WIDE];
+    let Some(taps) = taps.get_mut(..cols) else {
+        return false;
+    };
+    for (j, tap) in taps.iter_mut().enumerate() {
+        let sx = (x + j as f32).clamp(0.0, wmax);
+        let fx = libm::floorf(sx);
+        let x0 = fx as usize;
+        *tap = (x0, (x0 + 1).min(w - 1), sx - fx);
+    }
+    let mut top_h = [0.0f32; WIDE];
+    let mut bottom_h = [0.0f32; WIDE];
     for (i, out_row) in out.chunks_exact_mut(cols).enumerate() {
         let sy = (y + i as f32).clamp(0.0, hmax);
         let fy = libm::floorf(sy);
@@ -121,15 +196,14 @@ pub fn sample_clamped(
         let (Some(top), Some(bottom)) = (image.row(y0), image.row((y0 + 1).min(h - 1))) else {
             return false;
         };
-        for (j, o) in out_row.iter_mut().enumerate() {
-            let sx = (x + j as f32).clamp(0.0, wmax);
-            let fx = libm::floorf(sx);
-            let ax = sx - fx;
-            let x0 = fx as usize;
-            let x1 = (x0 + 1).min(w - 1);
-            let p = |r: &[u8], c: usize| f32::from(r.get(c).copied().unwrap_or(0));
-            *o = (1.0 - ay) * ((1.0 - ax) * p(top, x0) + ax * p(top, x1))
-                + ay * ((1.0 - ax) * p(bottom, x0) + ax * p(bottom, x1));
+        let p = |r: &[u8], c: usize| f32::from(r.get(c).copied().unwrap_or(0));
+        let rows = top_h.iter_mut().zip(bottom_h.iter_mut());
+        for ((t, b), &(x0, x1, ax)) in rows.zip(taps.iter()) {
+            *t = p(top, x0) + ax * (p(top, x1) - p(top, x0));
+            *b = p(bottom, x0) + ax * (p(bottom, x1) - p(bottom, x0));
+        }
+        for ((o, &t), &b) in out_row.iter_mut().zip(&top_h).zip(&bottom_h) {
+            *o = t + ay * (b - t);
         }
     }
     true

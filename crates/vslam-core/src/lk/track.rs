@@ -10,6 +10,8 @@ use super::config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
 use super::sample::{Bilinear, sample_clamped};
 use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
 
+/// SIMD-friendly lane count of the window loops.
+const LANES: usize = 8;
 const AREA: usize = MAX_WINDOW * MAX_WINDOW;
 const PATCH: usize = (MAX_WINDOW + 2) * (MAX_WINDOW + 2);
 
@@ -22,6 +24,8 @@ pub(super) struct Template {
     pub(super) gy: [f32; AREA],
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
+    /// The sampled window with a one-pixel frame for the gradients.
+    patch: [f32; PATCH],
 }
 
 /// Why a template could not be built.
@@ -42,33 +46,42 @@ impl Template {
     /// Samples the window of side `n` centred on `c` and its gradients.
     /// With `clamp`, a window hanging over the border repeats the edge pixels
     /// (the centre must still be inside); without, it is out of bounds.
-    fn new(
+    /// Storage for one template, filled per point and level by [`Template::fill`]
+    /// (one instance serves a whole batch: no per-point zeroing of 16 KiB).
+    fn empty() -> Self {
+        Template {
+            n: 0,
+            t: [0.0; AREA],
+            gx: [0.0; AREA],
+            gy: [0.0; AREA],
+            g_inv: [0.0; 3],
+            patch: [0.0; PATCH],
+        }
+    }
+
+    fn fill(
+        &mut self,
         image: &ImageView<'_>,
         c: Vec2,
         n: usize,
         min_eig: f32,
         clamp: bool,
-    ) -> Result<Self, TemplateFault> {
+    ) -> Result<(), TemplateFault> {
         let half = (n / 2) as f32;
         let m = n + 2;
         let (x, y) = (c.x - half - 1.0, c.y - half - 1.0);
-        let mut patch = [0.0f32; PATCH];
+        let patch = &mut self.patch;
         let sampled = match Bilinear::new(image, x, y, m, m) {
-            Some(window) => window.sample(image, &mut patch),
-            None => clamp && inside(image, c) && sample_clamped(image, x, y, m, m, &mut patch),
+            Some(window) => window.sample(image, patch),
+            None => clamp && inside(image, c) && sample_clamped(image, x, y, m, m, patch),
         };
         if !sampled {
             return Err(TemplateFault::OutOfBounds);
         }
-        let mut tpl = Template {
-            n,
-            t: [0.0; AREA],
-            gx: [0.0; AREA],
-            gy: [0.0; AREA],
-            g_inv: [0.0; 3],
-        };
+        self.n = n;
+        let tpl = self;
         let (mut gxx, mut gxy, mut gyy) = (0.0f32, 0.0f32, 0.0f32);
-        let patch_rows = patch.chunks_exact(m).take(m);
+        let patch_rows = tpl.patch.chunks_exact(m).take(m);
         let triples = patch_rows
             .clone()
             .zip(patch_rows.clone().skip(1))
@@ -104,7 +117,7 @@ impl Template {
             return Err(TemplateFault::LowEigenvalue);
         }
         tpl.g_inv = [gyy / det, -gxy / det, gxx / det];
-        Ok(tpl)
+        Ok(())
     }
 
     /// One pass over the window centred on `c` in `image`: the right-hand
@@ -120,42 +133,58 @@ impl Template {
                 None
             };
         };
-        let [w00, w01, w10, w11] = window.weights();
-        // Per-column accumulators: each column sums independently, so the
-        // loop vectorises without reassociating a single float sum.
-        let mut acc_x = [0.0f32; MAX_WINDOW];
-        let mut acc_y = [0.0f32; MAX_WINDOW];
-        let mut acc_abs = [0.0f32; MAX_WINDOW];
+        // Eight lanes in local arrays: the loop body is straight-line code
+        // over fixed-size arrays, which the compiler turns into SIMD; each
+        // lane sums its own columns, so no float sum is reassociated.
         let rows = self
             .t
             .chunks_exact(n)
             .zip(self.gx.chunks_exact(n))
             .zip(self.gy.chunks_exact(n))
             .take(n);
+        let ay = window.ay();
+        let (mut sx, mut sy, mut sa) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        let (mut tail_x, mut tail_y, mut tail_a) = (0.0f32, 0.0f32, 0.0f32);
+        let (mut top, mut bottom) = ([0.0f32; MAX_WINDOW], [0.0f32; MAX_WINDOW]);
+        let (mut h0, mut h1) = (top.get_mut(..n)?, bottom.get_mut(..n)?);
+        window.horizontal(image, 0, h0)?;
         for (i, ((t, gx), gy)) in rows.enumerate() {
-            let [a0, a1, b0, b1] = window.source_rows(image, i)?;
-            let src = a0.iter().zip(a1).zip(b0).zip(b1);
-            let tpl = t.iter().zip(gx).zip(gy);
-            let acc = acc_x
-                .iter_mut()
-                .zip(acc_y.iter_mut())
-                .zip(acc_abs.iter_mut());
-            for (((sx, sy), sa), (((&t, &gx), &gy), (((&p00, &p01), &p10), &p11))) in
-                acc.zip(tpl.zip(src))
-            {
-                let j = w00 * f32::from(p00)
-                    + w01 * f32::from(p01)
-                    + w10 * f32::from(p10)
-                    + w11 * f32::from(p11);
-                let d = t - j;
-                *sx += d * gx;
-                *sy += d * gy;
-                *sa += libm::fabsf(d);
+            window.horizontal(image, i + 1, h1)?;
+            let (t8, t_rest) = t.as_chunks::<LANES>();
+            let (gx8, gx_rest) = gx.as_chunks::<LANES>();
+            let (gy8, gy_rest) = gy.as_chunks::<LANES>();
+            let (a8, a_rest) = h0.as_chunks::<LANES>();
+            let (b8, b_rest) = h1.as_chunks::<LANES>();
+            let chunks = t8.iter().zip(gx8).zip(gy8).zip(a8.iter().zip(b8));
+            for (((t, gx), gy), (a, b)) in chunks {
+                let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
+                let pixels = t.iter().zip(gx).zip(gy).zip(a.iter().zip(b));
+                for (((x, y), s), (((&t, &gx), &gy), (&a, &b))) in lanes.zip(pixels) {
+                    let d = t - (a + ay * (b - a));
+                    *x += d * gx;
+                    *y += d * gy;
+                    *s += d.abs();
+                }
             }
+            let rest = t_rest
+                .iter()
+                .zip(gx_rest)
+                .zip(gy_rest)
+                .zip(a_rest.iter().zip(b_rest));
+            for (((&t, &gx), &gy), (&a, &b)) in rest {
+                let d = t - (a + ay * (b - a));
+                tail_x += d * gx;
+                tail_y += d * gy;
+                tail_a += d.abs();
+            }
+            core::mem::swap(&mut h0, &mut h1);
         }
         Some(Mismatch {
-            b: Vec2::new(acc_x.iter().sum(), acc_y.iter().sum()),
-            abs: acc_abs.iter().sum(),
+            b: Vec2::new(
+                sx.iter().sum::<f32>() + tail_x,
+                sy.iter().sum::<f32>() + tail_y,
+            ),
+            abs: sa.iter().sum::<f32>() + tail_a,
         })
     }
 
@@ -242,8 +271,9 @@ impl Tracker {
             });
         }
         let mut counts = TrackCounts::default();
+        let mut tpl = Template::empty();
         for (r, p) in results.iter_mut().zip(points) {
-            *r = self.track_checked(prev, next, *p, None);
+            *r = self.track_checked(prev, next, *p, None, &mut tpl);
             counts.record(r.status);
         }
         Ok(counts)
@@ -267,8 +297,9 @@ impl Tracker {
             });
         }
         let mut counts = TrackCounts::default();
+        let mut tpl = Template::empty();
         for ((r, p), g) in results.iter_mut().zip(points).zip(guesses) {
-            *r = self.track_checked(prev, next, *p, Some(*g));
+            *r = self.track_checked(prev, next, *p, Some(*g), &mut tpl);
             counts.record(r.status);
         }
         Ok(counts)
@@ -284,7 +315,8 @@ impl Tracker {
         guess: Option<Vec2>,
     ) -> Result<TrackResult, LkError> {
         check_sizes(prev, next)?;
-        Ok(self.track_checked(prev, next, point, guess))
+        let mut tpl = Template::empty();
+        Ok(self.track_checked(prev, next, point, guess, &mut tpl))
     }
 
     fn track_checked(
@@ -293,9 +325,10 @@ impl Tracker {
         next: &Pyramid<'_>,
         point: Vec2,
         guess: Option<Vec2>,
+        tpl: &mut Template,
     ) -> TrackResult {
         let guess = guess.unwrap_or(point);
-        let fwd = self.pass(prev, next, point, guess);
+        let fwd = self.pass(prev, next, point, guess, tpl);
         let mut result = TrackResult {
             position: fwd.position,
             status: fwd.status,
@@ -305,7 +338,7 @@ impl Tracker {
         };
         if let (Some(threshold), TrackStatus::Tracked) = (self.config.fb_threshold, fwd.status) {
             // Tracked back from where it landed, without a hint of the answer.
-            let back = self.pass(next, prev, fwd.position, fwd.position);
+            let back = self.pass(next, prev, fwd.position, fwd.position, tpl);
             let error = (back.position - point).norm();
             let home = back.status.is_tracked() && error <= threshold;
             result.fb_error = Some(if back.status.is_tracked() {
@@ -321,7 +354,14 @@ impl Tracker {
     }
 
     /// One pass from `from` into `to`, starting at `guess` (level 0 pixels).
-    fn pass(&self, from: &Pyramid<'_>, to: &Pyramid<'_>, point: Vec2, guess: Vec2) -> Pass {
+    fn pass(
+        &self,
+        from: &Pyramid<'_>,
+        to: &Pyramid<'_>,
+        point: Vec2,
+        guess: Vec2,
+        tpl: &mut Template,
+    ) -> Pass {
         let cfg = &self.config;
         let finite = |v: &Vec2| v.x.is_finite() && v.y.is_finite();
         if !finite(&point) || !finite(&guess) {
@@ -333,7 +373,7 @@ impl Tracker {
         let mut flow = (guess - point) / (1u32 << (levels - 1)) as f32;
         let mut iterations = 0;
         let mut converged = false;
-        let mut template_l0 = None;
+        let mut have_l0 = false;
         for level in (0..levels).rev() {
             let scale = 1.0 / (1u32 << level) as f32;
             let (Some(img_from), Some(img_to)) = (from.level(level), to.level(level)) else {
@@ -343,8 +383,8 @@ impl Tracker {
             // Coarse levels let windows hang over the border (as OpenCV's padded
             // pyramids do); level 0 demands the whole window inside.
             let clamp = level > 0;
-            let tpl = match Template::new(&img_from, u, cfg.window, cfg.min_eigenvalue, clamp) {
-                Ok(t) => t,
+            match tpl.fill(&img_from, u, cfg.window, cfg.min_eigenvalue, clamp) {
+                Ok(()) => {}
                 Err(fault) => {
                     if level == 0 {
                         let reason = match fault {
@@ -388,11 +428,11 @@ impl Tracker {
             if level > 0 {
                 flow *= 2.0;
             } else {
-                template_l0 = Some(tpl);
+                have_l0 = true;
             }
         }
         let mut position = point + flow;
-        let Some(tpl) = template_l0 else {
+        if !have_l0 {
             return Pass::lost(position, LostReason::OutOfBounds);
         };
         if !finite(&position) {
@@ -402,7 +442,7 @@ impl Tracker {
             return Pass::lost(position, LostReason::OutOfBounds);
         };
         let residual = if cfg.affine_refinement && converged {
-            let Some(fit) = affine::refine(&tpl, &base, position, cfg.max_iterations, cfg.epsilon)
+            let Some(fit) = affine::refine(tpl, &base, position, cfg.max_iterations, cfg.epsilon)
             else {
                 return Pass::lost(position, LostReason::OutOfBounds);
             };
