@@ -119,7 +119,8 @@ pub struct TrackResult {
     /// Tracked or lost.
     pub status: TrackStatus,
     /// Mean absolute intensity difference (levels, 0..=255) between the
-    /// template and the tracked window at level 0; `f32::INFINITY` when the
+    /// template and the tracked window at level 0 (measured at the last
+    /// iterate, within `epsilon` of `position`); `f32::INFINITY` when the
     /// point was lost before it could be measured.
     pub residual: f32,
     /// Forward-backward distance in pixels, when the check ran.

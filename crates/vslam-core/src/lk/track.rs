@@ -374,6 +374,7 @@ impl Tracker {
         let mut iterations = 0;
         let mut converged = false;
         let mut have_l0 = false;
+        let mut last_abs = None;
         for level in (0..levels).rev() {
             let scale = 1.0 / (1u32 << level) as f32;
             let (Some(img_from), Some(img_to)) = (from.level(level), to.level(level)) else {
@@ -402,6 +403,7 @@ impl Tracker {
             let mut previous_step = Vec2::zeros();
             converged = false;
             iterations = 0;
+            last_abs = None;
             for k in 0..cfg.max_iterations {
                 let Some(m) = tpl.mismatch(&img_to, v, clamp) else {
                     if level == 0 {
@@ -414,6 +416,8 @@ impl Tracker {
                 iterations = k + 1;
                 if step.norm_squared() <= eps_sq {
                     converged = true;
+                    // Measured within epsilon of where the point ends: reuse it.
+                    last_abs = Some(m.abs);
                     break;
                 }
                 // A step that undoes the previous one: settle in the middle.
@@ -451,10 +455,19 @@ impl Tracker {
             iterations += fit.iterations;
             fit.residual
         } else {
-            let Some(m) = tpl.mismatch(&base, position, false) else {
+            let half = (cfg.window / 2) as f32;
+            let (x, y) = (position.x - half, position.y - half);
+            if Bilinear::new(&base, x, y, cfg.window, cfg.window).is_none() {
                 return Pass::lost(position, LostReason::OutOfBounds);
+            }
+            let abs = match last_abs {
+                Some(abs) => abs,
+                None => match tpl.mismatch(&base, position, false) {
+                    Some(m) => m.abs,
+                    None => return Pass::lost(position, LostReason::OutOfBounds),
+                },
             };
-            m.abs / (cfg.window * cfg.window) as f32
+            abs / (cfg.window * cfg.window) as f32
         };
         let status = if !converged {
             TrackStatus::Lost(LostReason::NotConverged)
