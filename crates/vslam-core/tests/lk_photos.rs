@@ -15,7 +15,12 @@ const H: usize = 240;
 
 /// Tracks 100 corners of the 320x240 centre crop of `name` into its warp by
 /// `homography`; returns (median endpoint error, tracked fraction, mean residual).
-fn track_photo(name: &str, homography: &Homography, config: LkConfig) -> (f64, f64, f64) {
+fn track_photo(
+    label: &str,
+    name: &str,
+    homography: &Homography,
+    config: LkConfig,
+) -> (f64, f64, f64) {
     let first = load(name).crop_centre(W, H);
     let second = first.warp(homography);
 
@@ -63,7 +68,12 @@ fn track_photo(name: &str, homography: &Homography, config: LkConfig) -> (f64, f
     };
     let worst = errors.last().copied().unwrap_or(f64::INFINITY);
     println!(
-        "{name}: {n} corners, tracked {:.1} %, median endpoint error {med:.4} px, worst {worst:.3} px, mean residual {residual:.2} levels, lost {:?}",
+        "[{label}{}] {name}: {n} corners, tracked {:.1} %, median endpoint error {med:.4} px, worst {worst:.3} px, mean residual {residual:.2} levels, lost {:?}",
+        if config.affine_refinement {
+            ", affine"
+        } else {
+            ""
+        },
         100.0 * tracked,
         counts.lost
     );
@@ -90,7 +100,12 @@ fn affine() -> LkConfig {
 #[test]
 fn photos_shifted_track_within_five_hundredths_of_a_pixel() {
     for name in ["camera.png", "brick.png", "gravel.png"] {
-        let (med, tracked, _) = track_photo(name, &shift_and_perspective(), LkConfig::default());
+        let (med, tracked, _) = track_photo(
+            "shift+perspective",
+            name,
+            &shift_and_perspective(),
+            LkConfig::default(),
+        );
         assert!(med <= 0.05, "{name}: median error {med} px");
         assert!(tracked >= 0.95, "{name}: tracked only {tracked}");
     }
@@ -104,8 +119,13 @@ fn photos_rotated_track_with_affine_refinement() {
         ("gravel.png", 0.05),
     ] {
         let h = rotation_scale_shift_perspective();
-        let (translational, _, _) = track_photo(name, &h, LkConfig::default());
-        let (med, tracked, _) = track_photo(name, &h, affine());
+        let (translational, _, _) = track_photo(
+            "rotation+scale+shift+perspective",
+            name,
+            &h,
+            LkConfig::default(),
+        );
+        let (med, tracked, _) = track_photo("rotation+scale+shift+perspective", name, &h, affine());
         assert!(med <= bar, "{name}: median error {med} px");
         assert!(tracked >= 0.95, "{name}: tracked only {tracked}");
         // The translational model is biased under rotation; the affine stage removes most of it.
@@ -123,7 +143,12 @@ fn photos_pass_the_forward_backward_check() {
         ..LkConfig::default()
     };
     for name in ["camera.png", "brick.png", "gravel.png"] {
-        let (med, tracked, _) = track_photo(name, &shift_and_perspective(), config);
+        let (med, tracked, _) = track_photo(
+            "shift+perspective, fb 0.5 px",
+            name,
+            &shift_and_perspective(),
+            config,
+        );
         assert!(med <= 0.05, "{name}: median error {med} px");
         assert!(tracked >= 0.95, "{name}: tracked only {tracked}");
     }
@@ -133,7 +158,12 @@ fn photos_pass_the_forward_backward_check() {
 fn larger_motion_needs_the_pyramid() {
     // A 14 px shift: out of reach for a single 21x21 level, easy with 3 levels.
     let h = Homography::similarity_about(160.0, 120.0, 0.0, 1.0, 12.0, 7.0, 0.0, 0.0);
-    let (med, tracked, _) = track_photo("camera.png", &h, LkConfig::default());
+    let (med, tracked, _) = track_photo(
+        "14 px shift, 3 levels",
+        "camera.png",
+        &h,
+        LkConfig::default(),
+    );
     assert!(
         med <= 0.05 && tracked >= 0.95,
         "3 levels: {med} px, {tracked}"
@@ -142,41 +172,9 @@ fn larger_motion_needs_the_pyramid() {
         levels: 1,
         ..LkConfig::default()
     };
-    let (med1, tracked1, _) = track_photo("camera.png", &h, one_level);
+    let (med1, tracked1, _) = track_photo("14 px shift, 1 level", "camera.png", &h, one_level);
     assert!(
         tracked1 < 0.9 || med1 > 0.5,
         "one level should fail on a 14 px motion: {med1} px, {tracked1}"
     );
-}
-
-#[test]
-#[ignore]
-fn iteration_stats() {
-    let first = load("camera.png").crop_centre(W, H);
-    let second = first.warp(&rotation_scale_shift_perspective());
-    let mut st_a = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-    let mut st_b = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-    let (va, vb) = (first.view(), second.view());
-    let pa = Pyramid::build(&va, 3, &mut st_a).unwrap();
-    let pb = Pyramid::build(&vb, 3, &mut st_b).unwrap();
-    let cc = CornerConfig {
-        min_distance: 8.0,
-        border: 16,
-        ..CornerConfig::default()
-    };
-    let mut scratch = vec![0f32; scratch_len(W, H, 3)];
-    let mut corners = [Corner::default(); 100];
-    let n = detect_corners(&va, &cc, &mut scratch, &mut corners).unwrap();
-    let points: Vec<Vec2> = corners[..n].iter().map(Corner::position).collect();
-    for levels in [1, 2, 3] {
-        let mut results = vec![TrackResult::default(); n];
-        let t = Tracker::new(LkConfig {
-            levels,
-            ..LkConfig::default()
-        })
-        .unwrap();
-        t.track(&pa, &pb, &points, &mut results).unwrap();
-        let its: Vec<u32> = results.iter().map(|r| r.iterations).collect();
-        println!("levels {levels}: level-0 iterations {:?}", its);
-    }
 }
