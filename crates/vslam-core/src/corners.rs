@@ -163,7 +163,9 @@ pub fn detect_corners(
     let scratch = scratch
         .get_mut(..needed)
         .ok_or(CornerError::ScratchTooSmall { needed, got })?;
-    let (response, products) = scratch.split_at_mut(w * h);
+    let (response, products) = scratch
+        .split_at_mut_checked(w * h)
+        .ok_or(CornerError::ScratchTooSmall { needed, got })?;
     let strongest = min_eigenvalue_image(image, config.block_size, response, products);
     let textured = strongest >= config.min_response && strongest > 0.0;
     if !textured || out.is_empty() {
@@ -276,7 +278,9 @@ fn min_eigenvalue_image(
     response.fill(0.0);
     products.fill(0.0);
     let r = block / 2;
-    let (ring, sum) = products.split_at_mut(3 * w * block);
+    let Some((ring, sum)) = products.split_at_mut_checked(3 * w * block) else {
+        return 0.0;
+    };
     let norm = 1.0 / (64.0 * (block * block) as f32);
     let mut strongest = 0.0f32;
     for yy in 0..h {
