@@ -80,7 +80,6 @@ impl Template {
         }
         self.n = n;
         let tpl = self;
-        let (mut gxx, mut gxy, mut gyy) = (0.0f32, 0.0f32, 0.0f32);
         let patch_rows = tpl.patch.chunks_exact(m).take(m);
         let triples = patch_rows
             .clone()
@@ -91,22 +90,56 @@ impl Template {
             .chunks_exact_mut(n)
             .zip(tpl.gx.chunks_exact_mut(n))
             .zip(tpl.gy.chunks_exact_mut(n));
+        // Scharr, row by row over shifted slices (left, centre, right taps).
         for (((p0, p1), p2), ((t, gx), gy)) in triples.zip(outs) {
-            let taps = p0.windows(3).zip(p1.windows(3)).zip(p2.windows(3));
-            let out = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
-            for (((t, gx), gy), ((a, b), c)) in out.zip(taps) {
-                let (&[a0, a1, a2], &[b0, b1, b2], &[c0, c1, c2]) = (a, b, c) else {
-                    continue;
-                };
-                *t = b1;
-                let dx = (3.0 * (a2 - a0) + 10.0 * (b2 - b0) + 3.0 * (c2 - c0)) * (1.0 / 32.0);
-                let dy = (3.0 * (c0 - a0) + 10.0 * (c1 - a1) + 3.0 * (c2 - a2)) * (1.0 / 32.0);
-                *gx = dx;
-                *gy = dy;
-                gxx += dx * dx;
-                gxy += dx * dy;
-                gyy += dy * dy;
+            let ((Some(a0), Some(a1), Some(a2)), (Some(b0), Some(b1), Some(b2))) =
+                (taps(p0, n), taps(p1, n))
+            else {
+                return Err(TemplateFault::OutOfBounds);
+            };
+            let (Some(c0), Some(c1), Some(c2)) = taps(p2, n) else {
+                return Err(TemplateFault::OutOfBounds);
+            };
+            t.copy_from_slice(b1);
+            let x_taps = a0
+                .iter()
+                .zip(a2)
+                .zip(b0.iter().zip(b2))
+                .zip(c0.iter().zip(c2));
+            for (g, (((&a0, &a2), (&b0, &b2)), (&c0, &c2))) in gx.iter_mut().zip(x_taps) {
+                *g = (3.0 * (a2 - a0) + 10.0 * (b2 - b0) + 3.0 * (c2 - c0)) * (1.0 / 32.0);
             }
+            let y_taps = a0
+                .iter()
+                .zip(c0)
+                .zip(a1.iter().zip(c1))
+                .zip(a2.iter().zip(c2));
+            for (g, (((&a0, &c0), (&a1, &c1)), (&a2, &c2))) in gy.iter_mut().zip(y_taps) {
+                *g = (3.0 * (c0 - a0) + 10.0 * (c1 - a1) + 3.0 * (c2 - a2)) * (1.0 / 32.0);
+            }
+        }
+        // G = sum [gx² gx·gy; gx·gy gy²], in lanes.
+        let area_px = n * n;
+        let (gx8, gx_rest) = tpl.gx.get(..area_px).unwrap_or(&[]).as_chunks::<LANES>();
+        let (gy8, gy_rest) = tpl.gy.get(..area_px).unwrap_or(&[]).as_chunks::<LANES>();
+        let (mut sxx, mut sxy, mut syy) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        for (gx, gy) in gx8.iter().zip(gy8) {
+            let lanes = sxx.iter_mut().zip(sxy.iter_mut()).zip(syy.iter_mut());
+            for (((xx, xy), yy), (&gx, &gy)) in lanes.zip(gx.iter().zip(gy)) {
+                *xx += gx * gx;
+                *xy += gx * gy;
+                *yy += gy * gy;
+            }
+        }
+        let (mut gxx, mut gxy, mut gyy) = (
+            sxx.iter().sum::<f32>(),
+            sxy.iter().sum::<f32>(),
+            syy.iter().sum::<f32>(),
+        );
+        for (&gx, &gy) in gx_rest.iter().zip(gy_rest) {
+            gxx += gx * gx;
+            gxy += gx * gy;
+            gyy += gy * gy;
         }
         let area = (n * n) as f32;
         let half_diff = 0.5 * (gxx - gyy);
@@ -483,6 +516,12 @@ impl Tracker {
             iterations,
         }
     }
+}
+
+/// The left, centre and right `n`-wide slices of a patch row (`n + 2` wide).
+type Taps<'a> = (Option<&'a [f32]>, Option<&'a [f32]>, Option<&'a [f32]>);
+fn taps(p: &[f32], n: usize) -> Taps<'_> {
+    (p.get(..n), p.get(1..=n), p.get(2..n + 2))
 }
 
 /// `c` lies inside the image (pixel centres `0..=width-1`).
