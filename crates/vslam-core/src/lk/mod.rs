@@ -25,9 +25,16 @@
 //! inverse compositional), which removes the bias the translational model
 //! has under rotation and scale (see `affine`).
 //!
-//! No heap and no panic: windows up to [`MAX_WINDOW`]² live on the stack
-//! (about 13 KiB), results go into caller slices, any input point (NaN,
-//! infinite, far outside) yields a status.
+//! Borders: at level 0 the whole window (plus the bilinear neighbour) must lie
+//! inside the image, else the point is [`LostReason::OutOfBounds`]; at coarser
+//! levels a window may hang over the border with the edge pixels repeated (as
+//! OpenCV's padded pyramids allow), so points near the edge still profit from
+//! the pyramid. A coarse level whose window is degenerate passes its guess on.
+//!
+//! No heap and no panic: one template buffer for windows up to
+//! [`MAX_WINDOW`]² lives on the stack per call (about 20 KiB with the
+//! border-window scratch), results go into caller slices, any input point
+//! (NaN, infinite, far outside) yields a status.
 //!
 //! - [`sample`]: bilinear window sampling,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
