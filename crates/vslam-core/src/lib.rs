@@ -6,7 +6,8 @@
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
 //!   not fused, and the counts);
-//! - the vision front end: [`image`] views;
+//! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
+//!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`];
 //! - metric scale: [`scale`] (transactions, slip, selection, running scale,
 //!   [`scale::ScalePipeline`]), [`adverse`] (where sensors went wrong) and
 //!   [`pose`] (trajectory composition).
@@ -25,9 +26,12 @@
 )]
 
 pub mod adverse;
+pub mod corners;
 pub mod geometry;
 pub mod image;
+pub mod lk;
 pub mod pose;
+pub mod pyramid;
 pub mod reject;
 pub mod scale;
 pub mod sensors;

@@ -1,0 +1,147 @@
+//! Tracker settings and errors.
+
+use core::fmt;
+
+use crate::pyramid::MAX_LEVELS;
+
+/// The largest window side (pixels, odd).
+pub const MAX_WINDOW: usize = 31;
+
+/// Lucas-Kanade settings. Checked once by [`crate::lk::Tracker::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LkConfig {
+    /// Window side in pixels: odd, `3..=MAX_WINDOW`.
+    pub window: usize,
+    /// Pyramid levels to use (including level 0), `1..=MAX_LEVELS`; fewer
+    /// are used when the pyramids hold fewer.
+    pub levels: usize,
+    /// Iterations per level, at least 1.
+    pub max_iterations: u32,
+    /// Stop iterating when a step is shorter than this (level pixels), `> 0`.
+    pub epsilon: f32,
+    /// Smallest accepted eigenvalue of `G / window²`, (levels/pixel)², `>= 0`.
+    pub min_eigenvalue: f32,
+    /// Largest accepted residual (mean absolute difference, levels), `> 0`;
+    /// `f32::INFINITY` disables the check.
+    pub max_residual: f32,
+    /// After the translational pass, refine an affine warp of the window at
+    /// level 0 (more accurate under rotation and scale, about twice the cost).
+    pub affine_refinement: bool,
+    /// Forward-backward threshold in pixels (`> 0`, finite), or `None` to skip
+    /// the check (it doubles the cost).
+    pub fb_threshold: Option<f32>,
+}
+
+impl Default for LkConfig {
+    /// OpenCV's defaults (21x21, 3 levels, 30 iterations, 0.01 px), a
+    /// 0.1 (level/px)² eigenvalue floor, a residual limit of 30 levels, the
+    /// translational model only (as OpenCV), no forward-backward check.
+    fn default() -> Self {
+        LkConfig {
+            window: 21,
+            levels: 3,
+            max_iterations: 30,
+            epsilon: 0.01,
+            min_eigenvalue: 0.1,
+            max_residual: 30.0,
+            affine_refinement: false,
+            fb_threshold: None,
+        }
+    }
+}
+
+/// Which setting is invalid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LkConfigError {
+    /// The window is even, smaller than 3 or larger than [`MAX_WINDOW`].
+    Window,
+    /// Levels are 0 or more than [`MAX_LEVELS`].
+    Levels,
+    /// `max_iterations` is 0.
+    Iterations,
+    /// `epsilon` is not a positive finite number.
+    Epsilon,
+    /// `min_eigenvalue` is negative or not finite.
+    MinEigenvalue,
+    /// `max_residual` is not positive (or NaN).
+    MaxResidual,
+    /// `fb_threshold` is not a positive finite number.
+    FbThreshold,
+}
+
+impl fmt::Display for LkConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LkConfigError::Window => "LK window must be odd, from 3 to 31",
+            LkConfigError::Levels => "LK levels must be from 1 to the pyramid maximum",
+            LkConfigError::Iterations => "LK needs at least one iteration",
+            LkConfigError::Epsilon => "LK epsilon must be positive and finite",
+            LkConfigError::MinEigenvalue => "LK eigenvalue floor must be finite and non-negative",
+            LkConfigError::MaxResidual => "LK residual limit must be positive",
+            LkConfigError::FbThreshold => {
+                "LK forward-backward threshold must be positive and finite"
+            }
+        })
+    }
+}
+
+impl core::error::Error for LkConfigError {}
+
+impl LkConfig {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), LkConfigError> {
+        if self.window.is_multiple_of(2) || !(3..=MAX_WINDOW).contains(&self.window) {
+            return Err(LkConfigError::Window);
+        }
+        if !(1..=MAX_LEVELS).contains(&self.levels) {
+            return Err(LkConfigError::Levels);
+        }
+        if self.max_iterations == 0 {
+            return Err(LkConfigError::Iterations);
+        }
+        if !(self.epsilon.is_finite() && self.epsilon > 0.0) {
+            return Err(LkConfigError::Epsilon);
+        }
+        if !(self.min_eigenvalue.is_finite() && self.min_eigenvalue >= 0.0) {
+            return Err(LkConfigError::MinEigenvalue);
+        }
+        let residual_ok = self.max_residual > 0.0;
+        if !residual_ok {
+            return Err(LkConfigError::MaxResidual);
+        }
+        if let Some(t) = self.fb_threshold
+            && !(t.is_finite() && t > 0.0)
+        {
+            return Err(LkConfigError::FbThreshold);
+        }
+        Ok(())
+    }
+}
+
+/// Why a tracking call could not run at all (per-point trouble is a status).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LkError {
+    /// The output slice is shorter than the point slice.
+    OutputTooSmall {
+        /// Points given.
+        points: usize,
+        /// Result slots given.
+        results: usize,
+    },
+    /// The two pyramids' level-0 images differ in size.
+    SizeMismatch,
+}
+
+impl fmt::Display for LkError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LkError::OutputTooSmall { points, results } => write!(
+                f,
+                "{points} points to track but only {results} result slots"
+            ),
+            LkError::SizeMismatch => f.write_str("the two pyramids differ in image size"),
+        }
+    }
+}
+
+impl core::error::Error for LkError {}

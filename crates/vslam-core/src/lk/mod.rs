@@ -1,0 +1,192 @@
+//! Pyramidal Lucas-Kanade feature tracking.
+//!
+//! J.-Y. Bouguet, "Pyramidal Implementation of the Lucas Kanade Feature
+//! Tracker: Description of the Algorithm", Intel Corporation, 2000. For each
+//! point, from the coarsest pyramid level down to level 0:
+//!
+//! 1. the template window `T` around the point in the previous image and its
+//!    gradients (Scharr) are sampled once per level (bilinear, subpixel), with
+//!    the spatial gradient matrix `G = sum [gx² gx·gy; gx·gy gy²]`;
+//! 2. the displacement is refined iteratively: `b = sum (T - J(x + d)) [gx gy]`,
+//!    `d += G⁻¹ b`, until the step is below `epsilon` or `max_iterations`
+//!    (a step that undoes the previous one is halved and ends the loop, as in
+//!    OpenCV's `calcOpticalFlowPyrLK`);
+//! 3. the result, doubled, is the guess for the next finer level.
+//!
+//! Each point gets a [`TrackStatus`] (tracked, or lost with a [`LostReason`])
+//! and the residual: the mean absolute intensity difference between the
+//! template and the tracked window at level 0. An optional forward-backward
+//! check (Kalal, Mikolajczyk, Matas, "Forward-Backward Error", ICPR 2010)
+//! tracks the result back into the previous image and rejects the point when
+//! it does not come home within a threshold.
+//!
+//! With [`LkConfig::affine_refinement`] the level-0 result is refined further
+//! with a 6-parameter affine warp of the window (Baker and Matthews 2004,
+//! inverse compositional), which removes the bias the translational model
+//! has under rotation and scale (see `affine`).
+//!
+//! Borders: at level 0 the whole window (plus the bilinear neighbour) must lie
+//! inside the image, else the point is [`LostReason::OutOfBounds`]; at coarser
+//! levels a window may hang over the border with the edge pixels repeated (as
+//! OpenCV's padded pyramids allow), so points near the edge still profit from
+//! the pyramid. A coarse level whose window is degenerate passes its guess on.
+//!
+//! No heap and no panic: one template buffer for windows up to
+//! [`MAX_WINDOW`]² lives on the stack per call (about 20 KiB with the
+//! border-window scratch), results go into caller slices, any input point
+//! (NaN, infinite, far outside) yields a status.
+//!
+//! - [`sample`]: bilinear window sampling,
+//! - [`track`]: the per-level iteration and the [`Tracker`].
+
+mod affine;
+mod config;
+pub mod sample;
+pub mod track;
+
+pub use config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
+pub use track::Tracker;
+
+use crate::geometry::Vec2;
+
+/// Why a point was not tracked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum LostReason {
+    /// The input point or guess was NaN or infinite.
+    InvalidPoint = 0,
+    /// The window left the image at level 0.
+    OutOfBounds = 1,
+    /// The window at level 0 is too uniform: the smaller eigenvalue of `G`
+    /// is below `min_eigenvalue` (or `G` is singular).
+    LowEigenvalue = 2,
+    /// The iteration at level 0 did not settle within `max_iterations`.
+    NotConverged = 3,
+    /// The residual exceeds `max_residual`.
+    LargeResidual = 4,
+    /// Tracking back did not return within `fb_threshold` of the start.
+    ForwardBackward = 5,
+}
+
+impl LostReason {
+    /// How many reasons there are.
+    pub const COUNT: usize = 6;
+
+    /// Every reason, in counter order.
+    pub const ALL: [LostReason; LostReason::COUNT] = [
+        LostReason::InvalidPoint,
+        LostReason::OutOfBounds,
+        LostReason::LowEigenvalue,
+        LostReason::NotConverged,
+        LostReason::LargeResidual,
+        LostReason::ForwardBackward,
+    ];
+
+    /// A short snake_case name, stable for reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            LostReason::InvalidPoint => "invalid_point",
+            LostReason::OutOfBounds => "out_of_bounds",
+            LostReason::LowEigenvalue => "low_eigenvalue",
+            LostReason::NotConverged => "not_converged",
+            LostReason::LargeResidual => "large_residual",
+            LostReason::ForwardBackward => "forward_backward",
+        }
+    }
+}
+
+impl core::fmt::Display for LostReason {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The outcome for one point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TrackStatus {
+    /// Found in the next image.
+    Tracked,
+    /// Not found, and why.
+    Lost(LostReason),
+}
+
+impl TrackStatus {
+    /// `true` for [`TrackStatus::Tracked`].
+    pub fn is_tracked(&self) -> bool {
+        matches!(self, TrackStatus::Tracked)
+    }
+}
+
+/// One point's result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackResult {
+    /// Position in the next image (level-0 pixels). For lost points the last
+    /// estimate, which may be far off (or non-finite for an invalid input).
+    pub position: Vec2,
+    /// Tracked or lost.
+    pub status: TrackStatus,
+    /// Mean absolute intensity difference (levels, 0..=255) between the
+    /// template and the tracked window at level 0 (measured at the last
+    /// iterate, within `epsilon` of `position`); `f32::INFINITY` when the
+    /// point was lost before it could be measured.
+    pub residual: f32,
+    /// Forward-backward distance in pixels, when the check ran.
+    pub fb_error: Option<f32>,
+    /// Iterations spent at level 0 (forward pass).
+    pub iterations: u32,
+}
+
+impl TrackResult {
+    /// A placeholder for sizing output arrays: lost as an invalid point.
+    pub const EMPTY: TrackResult = TrackResult {
+        position: Vec2::new(0.0, 0.0),
+        status: TrackStatus::Lost(LostReason::InvalidPoint),
+        residual: f32::INFINITY,
+        fb_error: None,
+        iterations: 0,
+    };
+
+    /// `true` when the point was tracked.
+    pub fn is_tracked(&self) -> bool {
+        self.status.is_tracked()
+    }
+}
+
+impl Default for TrackResult {
+    fn default() -> Self {
+        TrackResult::EMPTY
+    }
+}
+
+/// How many points of one call were tracked and lost, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TrackCounts {
+    /// Points tracked.
+    pub tracked: usize,
+    /// Points lost, indexed by `LostReason as usize`.
+    pub lost: [usize; LostReason::COUNT],
+}
+
+impl TrackCounts {
+    /// Points lost for `reason`.
+    pub fn lost_for(&self, reason: LostReason) -> usize {
+        self.lost.get(reason as usize).copied().unwrap_or(0)
+    }
+
+    /// Points lost for any reason.
+    pub fn lost_total(&self) -> usize {
+        self.lost.iter().sum()
+    }
+
+    /// Counts one status.
+    pub fn record(&mut self, status: TrackStatus) {
+        match status {
+            TrackStatus::Tracked => self.tracked += 1,
+            TrackStatus::Lost(r) => {
+                if let Some(c) = self.lost.get_mut(r as usize) {
+                    *c += 1;
+                }
+            }
+        }
+    }
+}

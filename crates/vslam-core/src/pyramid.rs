@@ -1,0 +1,382 @@
+//! Image pyramids in caller-provided fixed buffers.
+//!
+//! Level 0 is the caller's image (borrowed, never copied). Each coarser level
+//! is the previous one blurred by the 5-tap binomial kernel `[1 4 6 4 1] / 16`
+//! in both directions and subsampled by two, with `(n + 1) / 2` pixels per
+//! side and mirrored borders (`dcb|abcd|cba`), as OpenCV's `pyrDown` does.
+//! Bouguet's pyramidal Lucas-Kanade ("Pyramidal Implementation of the Lucas
+//! Kanade Feature Tracker", Intel, 2000, section 2.2) builds its pyramid the
+//! same way with the 3-tap `[1 2 1] / 4` kernel; the 5-tap kernel suppresses
+//! aliasing better at the same cost order.
+//!
+//! The coarser levels live packed (`stride == width`) one after another in a
+//! [`PyramidStorage`], whose byte capacity is a const generic; size it with
+//! [`storage_bytes`].
+
+use core::fmt;
+
+use crate::image::{ImageError, ImageView};
+
+/// The most levels (including level 0) a [`Pyramid`] holds.
+pub const MAX_LEVELS: usize = 8;
+
+/// A coarser level is only built while both its sides keep at least this many pixels.
+pub const MIN_LEVEL_SIDE: usize = 4;
+
+/// The size of one side at `level` (level 0 is `side` itself).
+pub const fn level_side(side: usize, level: usize) -> usize {
+    let mut s = side;
+    let mut l = 0;
+    while l < level {
+        s = s.div_ceil(2);
+        l += 1;
+    }
+    s
+}
+
+/// Bytes a [`PyramidStorage`] needs for a `width x height` image and `levels`
+/// levels (level 0 is borrowed, so a single level needs none).
+pub const fn storage_bytes(width: usize, height: usize, levels: usize) -> usize {
+    let mut total = 0usize;
+    let mut l = 1;
+    while l < levels {
+        total = total.saturating_add(level_side(width, l).saturating_mul(level_side(height, l)));
+        l += 1;
+    }
+    total
+}
+
+/// Why a pyramid could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PyramidError {
+    /// Zero levels were requested.
+    NoLevels,
+    /// More levels were requested than the image size (or [`MAX_LEVELS`]) allows.
+    TooManyLevels {
+        /// Levels requested.
+        requested: usize,
+        /// The most this image allows, see [`Pyramid::max_levels`].
+        max: usize,
+    },
+    /// The storage holds fewer bytes than the coarser levels need.
+    StorageTooSmall {
+        /// Bytes needed, see [`storage_bytes`].
+        needed: usize,
+        /// Bytes the storage holds.
+        capacity: usize,
+    },
+    /// A level's image could not be formed (only on overflowing sizes).
+    Image(ImageError),
+}
+
+impl fmt::Display for PyramidError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PyramidError::NoLevels => f.write_str("a pyramid needs at least one level"),
+            PyramidError::TooManyLevels { requested, max } => write!(
+                f,
+                "{requested} pyramid levels requested, the image allows at most {max}"
+            ),
+            PyramidError::StorageTooSmall { needed, capacity } => write!(
+                f,
+                "pyramid storage holds {capacity} bytes, the levels need {needed}"
+            ),
+            PyramidError::Image(e) => write!(f, "pyramid level: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for PyramidError {}
+
+impl From<ImageError> for PyramidError {
+    fn from(e: ImageError) -> Self {
+        PyramidError::Image(e)
+    }
+}
+
+/// Fixed storage for the coarser levels of a pyramid: `BYTES` bytes, no heap.
+///
+/// Reuse one per camera stream (or two, for the previous and the current
+/// frame): building a pyramid overwrites it.
+#[derive(Clone, Debug)]
+pub struct PyramidStorage<const BYTES: usize> {
+    bytes: [u8; BYTES],
+}
+
+impl<const BYTES: usize> PyramidStorage<BYTES> {
+    /// Zeroed storage.
+    pub const fn new() -> Self {
+        PyramidStorage { bytes: [0; BYTES] }
+    }
+
+    /// The capacity in bytes.
+    pub const fn capacity(&self) -> usize {
+        BYTES
+    }
+}
+
+impl<const BYTES: usize> Default for PyramidStorage<BYTES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// An image pyramid: level 0 is the source image, level `l` is `2^l` times smaller.
+#[derive(Clone, Copy, Debug)]
+pub struct Pyramid<'a> {
+    /// Unused slots repeat level 0; `count` says how many are real.
+    levels: [ImageView<'a>; MAX_LEVELS],
+    count: usize,
+}
+
+impl<'a> Pyramid<'a> {
+    /// The most levels (including level 0) a `width x height` image allows:
+    /// coarser levels keep both sides at least [`MIN_LEVEL_SIDE`], and there
+    /// are at most [`MAX_LEVELS`]. Always at least 1.
+    pub const fn max_levels(width: usize, height: usize) -> usize {
+        let mut n = 1;
+        while n < MAX_LEVELS
+            && level_side(width, n) >= MIN_LEVEL_SIDE
+            && level_side(height, n) >= MIN_LEVEL_SIDE
+        {
+            n += 1;
+        }
+        n
+    }
+
+    /// Builds `levels` levels (including level 0, the `image` itself) into `storage`.
+    pub fn build<const BYTES: usize>(
+        image: &ImageView<'a>,
+        levels: usize,
+        storage: &'a mut PyramidStorage<BYTES>,
+    ) -> Result<Self, PyramidError> {
+        Self::build_in(image, levels, &mut storage.bytes)
+    }
+
+    /// [`Pyramid::build`] into a plain byte buffer (e.g. a static or a
+    /// region of a larger frame buffer).
+    pub fn build_in(
+        image: &ImageView<'a>,
+        levels: usize,
+        storage: &'a mut [u8],
+    ) -> Result<Self, PyramidError> {
+        if levels == 0 {
+            return Err(PyramidError::NoLevels);
+        }
+        let max = Self::max_levels(image.width(), image.height());
+        if levels > max {
+            return Err(PyramidError::TooManyLevels {
+                requested: levels,
+                max,
+            });
+        }
+        let needed = storage_bytes(image.width(), image.height(), levels);
+        if storage.len() < needed {
+            return Err(PyramidError::StorageTooSmall {
+                needed,
+                capacity: storage.len(),
+            });
+        }
+        let mut all = [*image; MAX_LEVELS];
+        let mut rest: &'a mut [u8] = storage;
+        let mut prev = *image;
+        for slot in all.iter_mut().take(levels).skip(1) {
+            let (w, h) = (prev.width().div_ceil(2), prev.height().div_ceil(2));
+            let len = w.checked_mul(h).ok_or(ImageError::TooLarge)?;
+            let (cur, tail) =
+                rest.split_at_mut_checked(len)
+                    .ok_or(PyramidError::StorageTooSmall {
+                        needed,
+                        capacity: len,
+                    })?;
+            downsample_into(&prev, cur)?;
+            let cur: &'a [u8] = cur;
+            prev = ImageView::packed(cur, w, h)?;
+            *slot = prev;
+            rest = tail;
+        }
+        Ok(Pyramid {
+            levels: all,
+            count: levels,
+        })
+    }
+
+    /// How many levels, including level 0 (at least 1).
+    pub fn levels(&self) -> usize {
+        self.count
+    }
+
+    /// Level `level`, or `None` past the coarsest.
+    pub fn level(&self, level: usize) -> Option<ImageView<'a>> {
+        if level < self.count {
+            self.levels.get(level).copied()
+        } else {
+            None
+        }
+    }
+
+    /// Level 0, the source image.
+    pub fn base(&self) -> ImageView<'a> {
+        self.levels[0]
+    }
+}
+
+/// Mirrors index `i` into `0..n` (`dcb|abcd|cba`, OpenCV's `BORDER_REFLECT_101`).
+fn reflect(i: isize, n: usize) -> usize {
+    let last = n.saturating_sub(1) as isize;
+    let r = if i < 0 {
+        -i
+    } else if i > last {
+        2 * last - i
+    } else {
+        i
+    };
+    r.clamp(0, last) as usize
+}
+
+/// The `[1 4 6 4 1]` weighted sum of five samples.
+#[inline(always)]
+fn binomial5(a: u32, b: u32, c: u32, d: u32, e: u32) -> u32 {
+    a + 4 * b + 6 * c + 4 * d + e
+}
+
+/// Halves `src` into the packed `dst` (`ceil(w/2) x ceil(h/2)` bytes):
+/// 5x5 binomial blur, then every second pixel. Returns the new size.
+pub fn downsample_into(
+    src: &ImageView<'_>,
+    dst: &mut [u8],
+) -> Result<(usize, usize), PyramidError> {
+    let (w, h) = (src.width(), src.height());
+    let (ow, oh) = (w.div_ceil(2), h.div_ceil(2));
+    let needed = ow.checked_mul(oh).ok_or(ImageError::TooLarge)?;
+    let capacity = dst.len();
+    let dst = dst
+        .get_mut(..needed)
+        .ok_or(PyramidError::StorageTooSmall { needed, capacity })?;
+    // Columns 1..=interior_end have all five taps inside the row.
+    let interior_end = w.saturating_sub(3) / 2;
+    for (oy, out) in dst.chunks_exact_mut(ow).enumerate() {
+        let cy = 2 * oy as isize;
+        let rows = [-2isize, -1, 0, 1, 2].map(|k| src.row(reflect(cy + k, h)).unwrap_or(&[]));
+        let [r0, r1, r2, r3, r4] = rows;
+        // Interior: window k of width 5 with step 2 is centred on column 2k + 2.
+        let windows = r0
+            .windows(5)
+            .step_by(2)
+            .zip(r1.windows(5).step_by(2))
+            .zip(r2.windows(5).step_by(2))
+            .zip(r3.windows(5).step_by(2))
+            .zip(r4.windows(5).step_by(2));
+        for (o, ((((a, b), c), d), e)) in out.iter_mut().skip(1).zip(windows) {
+            let h5 = |s: &[u8]| match *s {
+                [p, q, r, t, u] => binomial5(p.into(), q.into(), r.into(), t.into(), u.into()),
+                _ => 0,
+            };
+            let v = binomial5(h5(a), h5(b), h5(c), h5(d), h5(e));
+            *o = ((v + 128) >> 8) as u8;
+        }
+        // Borders: column 0 and the columns past the interior, by mirrored taps.
+        let border_cols = core::iter::once(0).chain((interior_end + 1).max(1)..ow);
+        for ox in border_cols {
+            let cx = 2 * ox as isize;
+            let cols = [-2isize, -1, 0, 1, 2].map(|k| reflect(cx + k, w));
+            let h5 = |s: &[u8]| {
+                let [c0, c1, c2, c3, c4] = cols.map(|c| u32::from(s.get(c).copied().unwrap_or(0)));
+                binomial5(c0, c1, c2, c3, c4)
+            };
+            let v = binomial5(h5(r0), h5(r1), h5(r2), h5(r3), h5(r4));
+            if let Some(o) = out.get_mut(ox) {
+                *o = ((v + 128) >> 8) as u8;
+            }
+        }
+    }
+    Ok((ow, oh))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The textbook definition, pixel by pixel, to check the fast path against.
+    fn reference(src: &ImageView<'_>) -> ([u8; 64 * 64], usize, usize) {
+        let (w, h) = (src.width(), src.height());
+        let (ow, oh) = (w.div_ceil(2), h.div_ceil(2));
+        let k = [1u32, 4, 6, 4, 1];
+        let mut out = [0u8; 64 * 64];
+        for oy in 0..oh {
+            for ox in 0..ow {
+                let mut s = 0;
+                for (j, kj) in k.iter().enumerate() {
+                    for (i, ki) in k.iter().enumerate() {
+                        let y = reflect(2 * oy as isize + j as isize - 2, h);
+                        let x = reflect(2 * ox as isize + i as isize - 2, w);
+                        s += kj * ki * u32::from(src.get(x, y).unwrap());
+                    }
+                }
+                out[oy * ow + ox] = ((s + 128) >> 8) as u8;
+            }
+        }
+        (out, ow, oh)
+    }
+
+    #[test]
+    fn downsample_matches_reference_for_odd_and_even_sizes() {
+        let mut buf = [0u8; 40 * 40];
+        let mut seed = 12345u32;
+        for b in buf.iter_mut() {
+            seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            *b = (seed >> 16) as u8;
+        }
+        for (w, h, stride) in [
+            (1, 1, 1),
+            (2, 3, 2),
+            (5, 5, 7),
+            (6, 4, 6),
+            (17, 12, 20),
+            (32, 31, 33),
+        ] {
+            let img = ImageView::new(&buf, w, h, stride).unwrap();
+            let (want, ow, oh) = reference(&img);
+            let mut got = [0u8; 64 * 64];
+            assert_eq!(downsample_into(&img, &mut got).unwrap(), (ow, oh));
+            assert_eq!(&got[..ow * oh], &want[..ow * oh], "{w}x{h}");
+        }
+    }
+
+    #[test]
+    fn build_checks_levels_and_storage() {
+        let buf = [7u8; 35 * 35];
+        let img = ImageView::packed(&buf, 35, 35).unwrap();
+        assert_eq!(Pyramid::max_levels(35, 35), 4); // 35, 18, 9, 5
+        assert_eq!(storage_bytes(35, 35, 3), 18 * 18 + 9 * 9);
+        let mut st = PyramidStorage::<{ storage_bytes(35, 35, 3) }>::new();
+        let p = Pyramid::build(&img, 3, &mut st).unwrap();
+        assert_eq!(p.levels(), 3);
+        assert_eq!(p.level(2).map(|l| (l.width(), l.height())), Some((9, 9)));
+        assert!(p.level(3).is_none());
+        // A uniform image stays uniform.
+        assert!(p.level(2).unwrap().data().iter().all(|&v| v == 7));
+        let mut small = PyramidStorage::<10>::new();
+        assert_eq!(
+            Pyramid::build(&img, 2, &mut small).err(),
+            Some(PyramidError::StorageTooSmall {
+                needed: 324,
+                capacity: 10
+            })
+        );
+        assert_eq!(
+            Pyramid::build(&img, 5, &mut small).err(),
+            Some(PyramidError::TooManyLevels {
+                requested: 5,
+                max: 4
+            })
+        );
+        assert_eq!(
+            Pyramid::build(&img, 0, &mut small).err(),
+            Some(PyramidError::NoLevels)
+        );
+        let one = ImageView::packed(&buf, 1, 1).unwrap();
+        assert_eq!(Pyramid::max_levels(1, 1), 1);
+        assert_eq!(Pyramid::build(&one, 1, &mut small).unwrap().levels(), 1);
+    }
+}
