@@ -22,6 +22,7 @@
 )]
 
 pub mod geometry;
+pub mod homography;
 pub mod image;
 pub mod reject;
 pub mod sensors;
