@@ -73,7 +73,11 @@ impl DltAccumulator {
     /// coordinates the rows were given in.
     pub(crate) fn solve(&self) -> Result<Mat3, HomographyError> {
         let r = SMatrix::<f32, 9, 9>::from_fn(|i, j| {
-            self.r.get(i).and_then(|row| row.get(j)).copied().unwrap_or(0.0)
+            self.r
+                .get(i)
+                .and_then(|row| row.get(j))
+                .copied()
+                .unwrap_or(0.0)
         });
         if !r.iter().all(|v| v.is_finite()) {
             return Err(HomographyError::NonFinite { index: 0 });
