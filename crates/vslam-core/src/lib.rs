@@ -6,7 +6,9 @@
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
 //!   not fused, and the counts);
-//! - the vision front end: [`image`] views.
+//! - the vision front end: [`image`] views, [`homography`] estimation
+//!   (four-point, normalised DLT, RANSAC, refinement) and its [`decompose`]ition
+//!   into `{R, t/d, n}`.
 //!
 //! What it will not do: allocate, panic on data, read files or talk to a bus.
 //! Failure is a value: small error enums per operation.
@@ -21,6 +23,7 @@
     )
 )]
 
+pub mod decompose;
 pub mod geometry;
 pub mod homography;
 pub mod image;
