@@ -9,9 +9,6 @@ use crate::geometry::{Mat3, Vec2, Vec3};
 /// coordinates; this guard only keeps numerically singular matrices out.
 const MIN_UNIT_DET: f32 = 1e-15;
 
-/// Below this `|w|` (relative to `||H||_F ||x1||`) a point maps to infinity.
-const MIN_RELATIVE_W: f32 = 1e-7;
-
 /// A homography `x2 ~ H x1` from image-1 pixels to image-2 pixels.
 ///
 /// Invariants (checked on construction): every entry finite, `||H||_F = 1`,
@@ -89,8 +86,8 @@ impl Homography {
         Homography::from_matrix(&inv).ok()
     }
 
-    /// Maps an image-1 pixel to image 2; `None` if it maps to (or near) the
-    /// line at infinity, or the coordinates are not finite.
+    /// Maps an image-1 pixel to image 2; `None` if it maps to the line at
+    /// infinity (or beyond `f32`'s range), or the coordinates are not finite.
     pub fn transfer(&self, p1: &Vec2) -> Option<Vec2> {
         transfer(&self.h, p1)
     }
@@ -105,12 +102,11 @@ impl Homography {
     }
 }
 
-/// `H x1` in inhomogeneous coordinates, `None` at (or near) infinity.
+/// `H x1` in inhomogeneous coordinates, `None` at infinity (`w = 0`, or a
+/// result too large for `f32`).
 pub(crate) fn transfer(h: &Mat3, p1: &Vec2) -> Option<Vec2> {
-    let x = Vec3::new(p1.x, p1.y, 1.0);
-    let y = h * x;
-    let scale = h.norm() * x.norm();
-    if !(libm::fabsf(y.z) > MIN_RELATIVE_W * scale) {
+    let y = h * Vec3::new(p1.x, p1.y, 1.0);
+    if y.z == 0.0 {
         return None;
     }
     let q = Vec2::new(y.x / y.z, y.y / y.z);
