@@ -7,7 +7,8 @@
 //! and cost `f32` half its digits, so the rows are instead streamed, one at a
 //! time, into a 9x9 upper-triangular `R` with `A = Q R` by Givens rotations
 //! (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 5.1.8 and 6.5.3
-//! "updating the QR factorisation"): fixed memory for any `N`, no heap. `A`
+//! "updating the QR factorisation"; square-root free, after Gentleman 1973):
+//! fixed memory for any `N`, no heap. `A`
 //! and `R` have the same singular values and right singular vectors, so the
 //! SVD of the small `R` finishes the job.
 
@@ -26,45 +27,60 @@ pub const RANK_TOLERANCE: f32 = 1e-4;
 const SVD_MAX_ITERATIONS: usize = 200;
 
 /// The upper-triangular factor `R` of the DLT design matrix, accumulated one
-/// row at a time by Givens rotations.
+/// row at a time by square-root-free Givens rotations (W. M. Gentleman,
+/// "Least squares computations by Givens transformations without square
+/// roots", IMA J. Appl. Math. 12, 1973; the row update of A. J. Miller,
+/// Algorithm AS 274, Applied Statistics 41(2), 1992): `R = D^(1/2) R_bar` with
+/// `R_bar` unit upper triangular, one division and no square root per
+/// rotation.
 #[derive(Clone, Debug)]
 pub(crate) struct DltAccumulator {
-    r: [[f32; 9]; 9],
+    /// The diagonal `D` (squared row norms of `R`).
+    d: [f32; 9],
+    /// `R_bar` above its unit diagonal (entries on and below are unused).
+    r_bar: [[f32; 9]; 9],
 }
 
 impl DltAccumulator {
     pub(crate) fn new() -> Self {
-        DltAccumulator { r: [[0.0; 9]; 9] }
+        DltAccumulator {
+            d: [0.0; 9],
+            r_bar: [[0.0; 9]; 9],
+        }
     }
 
     /// Adds the two rows of the correspondence `a -> b` (normalised
-    /// coordinates), scaled by `weight`.
+    /// coordinates), with weight `weight` on the squared residuals.
     #[inline]
     pub(crate) fn add(&mut self, a: &Vec2, b: &Vec2, weight: f32) {
-        let (x, y, u, v) = (a.x * weight, a.y * weight, b.x, b.y);
-        let w = weight;
-        self.add_row([0.0, 0.0, 0.0, -x, -y, -w, v * x, v * y, v * w]);
-        self.add_row([x, y, w, 0.0, 0.0, 0.0, -u * x, -u * y, -u * w]);
+        let (x, y, u, v) = (a.x, a.y, b.x, b.y);
+        self.add_row([0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v], weight);
+        self.add_row([x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y, -u], weight);
     }
 
-    /// Rotates one row into the triangle.
+    /// Rotates one row of weight `w` into the triangle (AS 274 `include`).
     #[inline]
-    fn add_row(&mut self, mut row: [f32; 9]) {
-        for (k, rk) in self.r.iter_mut().enumerate() {
-            let b = row.get(k).copied().unwrap_or(0.0);
-            if b == 0.0 {
+    fn add_row(&mut self, mut row: [f32; 9], mut w: f32) {
+        for (i, (di, ri)) in self.d.iter_mut().zip(self.r_bar.iter_mut()).enumerate() {
+            if !(w > 0.0) {
+                break;
+            }
+            let xi = row.get(i).copied().unwrap_or(0.0);
+            if xi == 0.0 {
                 continue;
             }
-            let a = rk.get(k).copied().unwrap_or(0.0);
-            let rho = libm::sqrtf(a * a + b * b);
-            if !(rho > 0.0) || !rho.is_finite() {
+            let dp = *di + w * xi * xi;
+            if !(dp > 0.0) || !dp.is_finite() {
                 continue;
             }
-            let (c, s) = (a / rho, b / rho);
-            for (x, y) in rk.iter_mut().zip(row.iter_mut()).skip(k) {
-                let xn = c * *x + s * *y;
-                *y = c * *y - s * *x;
-                *x = xn;
+            let c = *di / dp;
+            let s = w * xi / dp;
+            w *= c;
+            *di = dp;
+            for (xk, rk) in row.iter_mut().zip(ri.iter_mut()).skip(i + 1) {
+                let v = *xk;
+                *xk = v - xi * *rk;
+                *rk = c * *rk + s * v;
             }
         }
     }
@@ -73,11 +89,20 @@ impl DltAccumulator {
     /// coordinates the rows were given in.
     pub(crate) fn solve(&self) -> Result<Mat3, HomographyError> {
         let r = SMatrix::<f32, 9, 9>::from_fn(|i, j| {
-            self.r
-                .get(i)
-                .and_then(|row| row.get(j))
-                .copied()
-                .unwrap_or(0.0)
+            let scale = libm::sqrtf(self.d.get(i).copied().unwrap_or(0.0));
+            match j.cmp(&i) {
+                core::cmp::Ordering::Less => 0.0,
+                core::cmp::Ordering::Equal => scale,
+                core::cmp::Ordering::Greater => {
+                    scale
+                        * self
+                            .r_bar
+                            .get(i)
+                            .and_then(|r| r.get(j))
+                            .copied()
+                            .unwrap_or(0.0)
+                }
+            }
         });
         if !r.iter().all(|v| v.is_finite()) {
             return Err(HomographyError::NonFinite { index: 0 });

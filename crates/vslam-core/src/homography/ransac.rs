@@ -6,10 +6,11 @@
 //!
 //! for confidence `p` and the inlier fraction `w` of the best model so far,
 //! capped by [`RansacParams::max_iterations`]. The best consensus set is then
-//! re-fitted by the normalised DLT until it stops growing (the "local
-//! optimisation" of Chum, Matas & Kittler, DAGM 2003, in its simplest form)
-//! and finally refined by Levenberg-Marquardt on the transfer error
-//! ([`super::refine`]); the inlier mask is recomputed with the final `H`.
+//! re-fitted by the normalised DLT (the "local optimisation" of Chum, Matas &
+//! Kittler, DAGM 2003, in its simplest form: once before refinement, up to
+//! three times while the set grows without it) and refined by
+//! Levenberg-Marquardt on the transfer error ([`super::refine`]), the inlier
+//! set updated after each round; the returned mask is that of the final `H`.
 //!
 //! Everything runs in Hartley-normalised coordinates computed once for all
 //! points; since the normalisation is a similarity, the pixel threshold
@@ -97,6 +98,8 @@ pub struct RansacReport {
     pub rms_error_px: f32,
     /// Whether the Levenberg-Marquardt refinement changed the estimate.
     pub refined: bool,
+    /// Levenberg-Marquardt iterations run, over all refinement rounds.
+    pub refine_iterations: u32,
 }
 
 impl RansacReport {
@@ -251,7 +254,10 @@ impl<const N: usize> HomographyRansac<N> {
         mark_inliers(&h, a_all, b_all, thr2, inliers);
 
         // Local optimisation: re-fit on the consensus set while it grows.
-        for _ in 0..4 {
+        // With refinement one DLT re-fit suffices as the starting point: the
+        // Levenberg-Marquardt rounds below re-fit and update the set again.
+        let refits = if p.refine { 1 } else { 3 };
+        for _ in 0..refits {
             let mut acc = DltAccumulator::new();
             for ((a, b), _) in a_all
                 .iter()
@@ -276,6 +282,7 @@ impl<const N: usize> HomographyRansac<N> {
         }
 
         let mut refined = false;
+        let mut refine_iterations = 0u32;
         if p.refine {
             for _ in 0..3 {
                 let pairs = || {
@@ -287,6 +294,7 @@ impl<const N: usize> HomographyRansac<N> {
                         .map(|((a, b), _)| (*a, *b))
                 };
                 let out = levenberg_marquardt(&h, pairs, &p.refine_params);
+                refine_iterations = refine_iterations.saturating_add(out.iterations);
                 if out.iterations_accepted == 0 {
                     break;
                 }
@@ -328,6 +336,7 @@ impl<const N: usize> HomographyRansac<N> {
             degenerate_samples: degenerate,
             rms_error_px,
             refined,
+            refine_iterations,
         })
     }
 }

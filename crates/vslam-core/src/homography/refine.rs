@@ -18,6 +18,12 @@ use crate::geometry::{Mat3, Vec2};
 use nalgebra::{SMatrix, SVector};
 
 type Mat8 = SMatrix<f32, 8, 8>;
+
+/// Damped steps tried per iteration before giving up (lambda grows 10x each).
+const MAX_REJECTED_STEPS: usize = 6;
+
+/// A step below this fraction of the largest entry of `H` is converged.
+const STEP_TOLERANCE: f32 = 1e-6;
 type Vec8 = SVector<f32, 8>;
 
 /// Settings of the Levenberg-Marquardt refinement.
@@ -189,15 +195,22 @@ where
         }
         jtj.fill_upper_triangle_with_lower_triangle();
         let mut improved = false;
-        // Try damped steps until one lowers the cost (or lambda explodes).
-        while lambda < 1e8 {
+        let mut converged = false;
+        // Try a few damped steps until one lowers the cost.
+        for _ in 0..MAX_REJECTED_STEPS {
             let damping = jtj.diagonal().map(|d| lambda * d.max(1e-9));
             let damped = jtj + Mat8::from_diagonal(&damping);
             let Some(chol) = damped.cholesky() else {
                 lambda *= 10.0;
                 continue;
             };
-            let [s0, s1, s2, s3, s4, s5, s6, s7]: [f32; 8] = chol.solve(&(-jtr)).into();
+            let step = chol.solve(&(-jtr));
+            // Steps at f32 resolution of H cannot change anything: converged.
+            if step.amax() <= STEP_TOLERANCE * h.amax() {
+                converged = true;
+                break;
+            }
+            let [s0, s1, s2, s3, s4, s5, s6, s7]: [f32; 8] = step.into();
             let candidate = h + Mat3::new(s0, s1, s2, s3, s4, s5, s6, s7, 0.0);
             let (c, _) = cost(&candidate, pairs());
             if c.is_finite() && c < current && check_conditioning(&candidate).is_ok() {
@@ -207,20 +220,12 @@ where
                 lambda = (lambda * 0.1).max(1e-7);
                 improved = true;
                 accepted += 1;
-                if gain < params.relative_tolerance {
-                    return LmOutcome {
-                        h,
-                        iterations,
-                        iterations_accepted: accepted,
-                        initial_rms: rms(c0, n0),
-                        final_rms: rms(current, n),
-                    };
-                }
+                converged = gain < params.relative_tolerance;
                 break;
             }
             lambda *= 10.0;
         }
-        if !improved {
+        if !improved || converged {
             break;
         }
     }
