@@ -525,10 +525,28 @@ fn capacity_and_lengths_and_parameters() {
             max_iterations: 0,
             ..RansacParams::default()
         },
+        RansacParams {
+            min_inliers: 3,
+            ..RansacParams::default()
+        },
     ] {
         assert_eq!(
             HomographyRansac::<8>::new(bad).err(),
             Some(HomographyError::InvalidParameter)
         );
     }
+}
+
+#[test]
+fn ransac_on_unrelated_points_finds_no_consensus() {
+    let mut rng = Rng::new(77);
+    let a: Vec<V2> = (0..100).map(|_| rng.in_image(0.0)).collect();
+    let b: Vec<V2> = (0..100).map(|_| rng.in_image(0.0)).collect();
+    let mut r = HomographyRansac::<128>::new(RansacParams::default()).unwrap();
+    let mut mask = vec![true; 100];
+    assert_eq!(
+        r.estimate(&a, &b, &mut mask),
+        Err(HomographyError::NoConsensus)
+    );
+    assert!(mask.iter().all(|m| !*m));
 }

@@ -137,7 +137,7 @@ proptest! {
             match r.estimate(&a, &b, &mut mask) {
                 Ok(rep) => {
                     check_valid(&rep.homography);
-                    prop_assert!(rep.inlier_count >= 4);
+                    prop_assert!(rep.inlier_count >= params.min_inliers);
                     prop_assert_eq!(rep.inlier_count, mask.iter().filter(|m| **m).count());
                 }
                 Err(_) => prop_assert!(mask.iter().all(|m| !*m)),

@@ -135,8 +135,21 @@ pub fn decompose(
     h: &Homography,
     intrinsics: &PinholeIntrinsics,
 ) -> Result<HomographyDecomposition, DecomposeError> {
+    decompose_with_tolerance(h, intrinsics, PURE_ROTATION_TOLERANCE)
+}
+
+/// As [`decompose`], with the pure-rotation tolerance on `s1^2 - s3^2` given
+/// (see [`PURE_ROTATION_TOLERANCE`]).
+///
+/// # Errors
+/// See [`decompose_calibrated`].
+pub fn decompose_with_tolerance(
+    h: &Homography,
+    intrinsics: &PinholeIntrinsics,
+    pure_rotation_tolerance: f32,
+) -> Result<HomographyDecomposition, DecomposeError> {
     let calibrated = intrinsics.inverse_matrix() * h.matrix() * intrinsics.matrix();
-    let mut out = decompose_calibrated(&calibrated, PURE_ROTATION_TOLERANCE)?;
+    let mut out = decompose_calibrated(&calibrated, pure_rotation_tolerance)?;
     out.intrinsics = *intrinsics;
     Ok(out)
 }

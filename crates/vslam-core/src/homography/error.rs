@@ -36,7 +36,8 @@ pub enum HomographyError {
     Degenerate,
     /// The estimate is (numerically) a singular matrix, not a homography.
     NearSingular,
-    /// RANSAC found no model supported by at least four inliers.
+    /// RANSAC found no model supported by enough inliers
+    /// ([`super::RansacParams::min_inliers`]).
     NoConsensus,
     /// A parameter is out of its range (threshold, confidence, iterations).
     InvalidParameter,
@@ -64,7 +65,7 @@ impl fmt::Display for HomographyError {
             }
             HomographyError::NearSingular => f.write_str("estimate is a near-singular matrix"),
             HomographyError::NoConsensus => {
-                f.write_str("no homography is supported by four or more inliers")
+                f.write_str("no homography is supported by enough inliers")
             }
             HomographyError::InvalidParameter => f.write_str("parameter out of range"),
         }

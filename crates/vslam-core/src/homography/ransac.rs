@@ -38,6 +38,10 @@ pub struct RansacParams {
     pub confidence: f32,
     /// Hard cap on samples drawn (degenerate ones included), >= 1.
     pub max_iterations: u32,
+    /// Fewest inliers a result must have, >= 4. A minimal sample always
+    /// agrees with its own four points, so a model with 4 or 5 inliers carries
+    /// next to no evidence; the default asks for 8.
+    pub min_inliers: usize,
     /// Seed of the PRNG: equal seeds and data give equal results.
     pub seed: u64,
     /// Refine the consensus model by Levenberg-Marquardt.
@@ -47,12 +51,14 @@ pub struct RansacParams {
 }
 
 impl Default for RansacParams {
-    /// 3 px, confidence 0.995, at most 2000 samples, seed 0, refined.
+    /// 3 px, confidence 0.995, at most 2000 samples, at least 8 inliers,
+    /// seed 0, refined.
     fn default() -> Self {
         RansacParams {
             threshold_px: 3.0,
             confidence: 0.995,
             max_iterations: 2000,
+            min_inliers: 8,
             seed: 0,
             refine: true,
             refine_params: RefineParams::default(),
@@ -71,6 +77,7 @@ impl RansacParams {
             && self.confidence > 0.0
             && self.confidence < 1.0
             && self.max_iterations >= 1
+            && self.min_inliers >= 4
             && self.refine_params.relative_tolerance.is_finite()
             && self.refine_params.relative_tolerance >= 0.0;
         if ok {
@@ -156,7 +163,8 @@ impl<const N: usize> HomographyRansac<N> {
     /// [`HomographyError::TooFewPoints`], [`HomographyError::TooManyPoints`]
     /// (more than `N`), [`HomographyError::NonFinite`],
     /// [`HomographyError::Degenerate`] (all points coincide),
-    /// [`HomographyError::NoConsensus`] (no model with 4 or more inliers),
+    /// [`HomographyError::NoConsensus`] (no model with
+    /// [`RansacParams::min_inliers`] inliers),
     /// [`HomographyError::NearSingular`].
     pub fn estimate(
         &mut self,
@@ -248,7 +256,7 @@ impl<const N: usize> HomographyRansac<N> {
             }
         }
         let mut h = best.ok_or(HomographyError::NoConsensus)?;
-        if best_count < 4 {
+        if best_count < p.min_inliers {
             return Err(HomographyError::NoConsensus);
         }
         mark_inliers(&h, a_all, b_all, thr2, inliers);
@@ -299,7 +307,7 @@ impl<const N: usize> HomographyRansac<N> {
                     break;
                 }
                 let count = count_inliers(&out.h, a_all, b_all, thr2, 0);
-                if count < 4 {
+                if count < p.min_inliers {
                     break;
                 }
                 h = out.h;
@@ -314,7 +322,7 @@ impl<const N: usize> HomographyRansac<N> {
         }
 
         let count = mark_inliers_count(&h, a_all, b_all, thr2, inliers);
-        if count < 4 {
+        if count < p.min_inliers {
             return Err(HomographyError::NoConsensus);
         }
         let homography = Normalization::denormalize(&t1, &t2, &h)?;
