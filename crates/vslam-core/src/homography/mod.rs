@@ -21,6 +21,39 @@
 //! - [`refine`]: Levenberg-Marquardt on the one-sided transfer error.
 //! - [`normalize`]: the Hartley normalisation the solvers share.
 
+//! # Example: track, estimate, decompose
+//!
+//! ```
+//! use vslam_core::decompose::{decompose, NormalPrior, PinholeIntrinsics, SelectParams};
+//! use vslam_core::geometry::{Vec2, Vec3};
+//! use vslam_core::homography::{HomographyRansac, RansacParams};
+//!
+//! // Matches of a fronto-parallel ceiling, camera slid sideways by (5, -3) px.
+//! let points1: [Vec2; 9] = core::array::from_fn(|i| {
+//!     Vec2::new(60.0 + 250.0 * (i % 3) as f32, 50.0 + 180.0 * (i / 3) as f32)
+//! });
+//! let points2 = points1.map(|p| p + Vec2::new(5.0, -3.0));
+//!
+//! // The estimator owns its scratch for up to 128 matches.
+//! let mut ransac = HomographyRansac::<128>::new(RansacParams { seed: 1, ..Default::default() })?;
+//! let mut inliers = [false; 9];
+//! let report = ransac.estimate(&points1, &points2, &mut inliers)?;
+//! assert_eq!(report.inlier_count, 9);
+//! let row_major: [f32; 9] = report.homography.to_row_major();
+//! assert!((row_major[2] / row_major[8] - 5.0).abs() < 1e-3);
+//!
+//! // Motion and plane: the ceiling normal is +z of an upward camera.
+//! let k = PinholeIntrinsics::new(400.0, 400.0, 320.0, 240.0)?;
+//! let candidates = decompose(&report.homography, &k)?;
+//! let prior = NormalPrior::new(&Vec3::z(), 0.3)?;
+//! let params = SelectParams { prior: Some(prior), ..Default::default() };
+//! let chosen = candidates.select(&points1, &inliers, &params)?;
+//! let motion = candidates.selected(&chosen).ok_or("no candidate")?;
+//! // X2 = R X1 + t: the camera moved by -t; t/d = (5/400, -3/400, 0).
+//! assert!((motion.translation_over_distance - Vec3::new(0.0125, -0.0075, 0.0)).norm() < 1e-4);
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
+
 // `!(x > tol)` is deliberate throughout: it is true for NaN, so a NaN can
 // never pass a check that a plain `x <= tol` would let through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
