@@ -15,7 +15,7 @@
 //! samples) and sec. 4.5 / A6 (Levenberg-Marquardt on the transfer error).
 //!
 //! - [`four_point`]: exact solver from four correspondences (projective basis).
-//! - [`dlt`]: least squares from `N >= 4` correspondences (Givens-streamed QR,
+//! - [`mod@dlt`]: least squares from `N >= 4` correspondences (Givens-streamed QR,
 //!   SVD of the 9x9 triangle, no `A^T A`).
 //! - [`ransac`]: robust estimation with a caller-seeded PRNG and inlier mask.
 //! - [`refine`]: Levenberg-Marquardt on the one-sided transfer error.
