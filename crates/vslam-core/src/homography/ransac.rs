@@ -427,3 +427,48 @@ fn mark_inliers_count(h: &Mat3, a: &[Vec2], b: &[Vec2], thr2: f32, mask: &mut [b
     mark_inliers(h, a, b, thr2, mask);
     mask.iter().filter(|m| **m).count()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hartley & Zisserman, Table 4.3, sample size 4, p = 0.99.
+    #[test]
+    fn adaptive_count_matches_the_textbook_table() {
+        let log_fail = libm::logf(1.0 - 0.99);
+        let table = [
+            (5, 3),
+            (10, 5),
+            (20, 9),
+            (25, 13),
+            (30, 17),
+            (40, 34),
+            (50, 72),
+        ];
+        for (outlier_percent, samples) in table {
+            let inliers = 100 - outlier_percent;
+            assert_eq!(
+                adaptive_iterations(inliers, 100, log_fail, 10_000),
+                samples,
+                "{outlier_percent} % outliers"
+            );
+        }
+        assert_eq!(adaptive_iterations(100, 100, log_fail, 10_000), 1);
+        assert_eq!(adaptive_iterations(10, 100, log_fail, 500), 500);
+        assert_eq!(adaptive_iterations(0, 100, log_fail, 500), 500);
+    }
+
+    #[test]
+    fn draws_are_distinct_and_in_range() {
+        let mut rng = oorandom::Rand32::new(5);
+        for n in 4..12u32 {
+            for _ in 0..200 {
+                let idx = draw_four(&mut rng, n);
+                for (i, a) in idx.iter().enumerate() {
+                    assert!(*a < n as usize);
+                    assert!(idx.iter().skip(i + 1).all(|b| b != a));
+                }
+            }
+        }
+    }
+}
