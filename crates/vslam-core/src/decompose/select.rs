@@ -100,7 +100,8 @@ impl Default for SelectParams {
 pub struct Selection {
     /// Index into [`HomographyDecomposition::candidates`].
     pub index: usize,
-    /// Points in front of both cameras under the chosen candidate.
+    /// Points in front of both cameras under the chosen candidate (for a
+    /// pure rotation, where depth is undefined: all points).
     pub in_front: usize,
     /// Points considered (selected by the mask and finite).
     pub points: usize,
