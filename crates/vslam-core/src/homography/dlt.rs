@@ -73,8 +73,9 @@ impl DltAccumulator {
             if !(dp > 0.0) || !dp.is_finite() {
                 continue;
             }
-            let c = *di / dp;
-            let s = w * xi / dp;
+            let inv = 1.0 / dp;
+            let c = *di * inv;
+            let s = w * xi * inv;
             w *= c;
             *di = dp;
             for (xk, rk) in row.iter_mut().zip(ri.iter_mut()).skip(i + 1) {
