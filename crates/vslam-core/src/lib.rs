@@ -7,7 +7,9 @@
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
 //!   not fused, and the counts);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
-//!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`];
+//!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
+//!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
+//!   [`decompose`]ition into `{R, t/d, n}`;
 //! - metric scale: [`scale`] (transactions, slip, selection, running scale,
 //!   [`scale::ScalePipeline`]), [`adverse`] (where sensors went wrong) and
 //!   [`pose`] (trajectory composition).
@@ -27,7 +29,9 @@
 
 pub mod adverse;
 pub mod corners;
+pub mod decompose;
 pub mod geometry;
+pub mod homography;
 pub mod image;
 pub mod lk;
 pub mod pose;
