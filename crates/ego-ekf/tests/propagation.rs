@@ -33,10 +33,14 @@ fn boxminus(b: &NominalState, a: &NominalState) -> ErrorState {
     let mut dx = ErrorState::zeros();
     dx.fixed_rows_mut::<3>(0).copy_from(&(b.p_wb - a.p_wb));
     dx.fixed_rows_mut::<3>(3).copy_from(&(b.v_wb - a.v_wb));
-    dx.fixed_rows_mut::<3>(6).copy_from(&(a.q_wb.inverse() * b.q_wb).scaled_axis());
-    dx.fixed_rows_mut::<3>(9).copy_from(&(b.accel_bias - a.accel_bias));
-    dx.fixed_rows_mut::<3>(12).copy_from(&(b.gyro_bias - a.gyro_bias));
-    dx.fixed_rows_mut::<3>(15).copy_from(&(b.gravity - a.gravity));
+    dx.fixed_rows_mut::<3>(6)
+        .copy_from(&(a.q_wb.inverse() * b.q_wb).scaled_axis());
+    dx.fixed_rows_mut::<3>(9)
+        .copy_from(&(b.accel_bias - a.accel_bias));
+    dx.fixed_rows_mut::<3>(12)
+        .copy_from(&(b.gyro_bias - a.gyro_bias));
+    dx.fixed_rows_mut::<3>(15)
+        .copy_from(&(b.gravity - a.gravity));
     dx
 }
 
@@ -44,7 +48,9 @@ fn boxminus(b: &NominalState, a: &NominalState) -> ErrorState {
 fn random_spd(seed: u64) -> Covariance {
     let mut s = seed;
     let mut next = || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
     };
     let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| next());
@@ -67,10 +73,15 @@ fn block_propagation_equals_dense_reference() {
         propagate_covariance(&mut fast, &f, &q);
         propagate_covariance_dense(&mut dense, &f, &q);
         let err = (fast - dense).abs().max();
-        assert!(err < 1e-5 * dense.abs().max(), "seed {seed}: max error {err}");
+        assert!(
+            err < 1e-5 * dense.abs().max(),
+            "seed {seed}: max error {err}"
+        );
         // The rest-to-rest block only gained Q.
         let rest = fast.fixed_view::<17, 17>(18, 18) - p0.fixed_view::<17, 17>(18, 18);
-        let q_rest = Covariance::from_diagonal(&q).fixed_view::<17, 17>(18, 18).into_owned();
+        let q_rest = Covariance::from_diagonal(&q)
+            .fixed_view::<17, 17>(18, 18)
+            .into_owned();
         assert!((rest - q_rest).abs().max() < 1e-6);
     }
 }
@@ -85,7 +96,12 @@ fn transition_matches_finite_differences() {
     let f = Transition::new(&r, &(accel_m - x0.accel_bias), &(gyro_m - x0.gyro_bias), dt).dense();
     let step = |x: &NominalState| {
         let mut y = *x;
-        propagate_nominal(&mut y, &(accel_m - x.accel_bias), &(gyro_m - x.gyro_bias), dt);
+        propagate_nominal(
+            &mut y,
+            &(accel_m - x.accel_bias),
+            &(gyro_m - x.gyro_bias),
+            dt,
+        );
         y
     };
     let y0 = step(&x0);

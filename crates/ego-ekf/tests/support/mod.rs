@@ -155,7 +155,11 @@ impl Sim {
     }
 
     fn r_rb(&self) -> nalgebra::Matrix3<f64> {
-        self.robot.q_rb.to_rotation_matrix().into_inner().cast::<f64>()
+        self.robot
+            .q_rb
+            .to_rotation_matrix()
+            .into_inner()
+            .cast::<f64>()
     }
 
     fn p_mid(&self) -> nalgebra::Vector3<f64> {
@@ -261,7 +265,7 @@ impl Sim {
         let imu = ImuSample::new(t, gyro, accel).unwrap();
 
         // Wheels at 50 Hz: forward speed of each contact point, robot frame.
-        let wheel = (self.k % 5 == 0).then(|| {
+        let wheel = self.k.is_multiple_of(5).then(|| {
             let c_l = r_rb * (to64(&self.robot.p_bl) - self.p_mid());
             let c_r = r_rb * (to64(&self.robot.p_br) - self.p_mid());
             let stopped = self.v.abs() < 1e-9 && self.r.abs() < 1e-9;
@@ -284,7 +288,7 @@ impl Sim {
         for (acc, vi) in self.flow_acc.iter_mut().zip([v_s.x, v_s.y]) {
             *acc += vi * dt / FLOW_HEIGHT as f64 * FLOW_CPR as f64;
         }
-        let flow = (self.with_flow && self.k % 10 == 0).then(|| {
+        let flow = (self.with_flow && self.k.is_multiple_of(10)).then(|| {
             let fdt = 10.0 * dt;
             let noise = self.noise.flow_std * fdt / FLOW_HEIGHT as f64 * FLOW_CPR as f64;
             let mut counts = [0i16; 2];
@@ -321,7 +325,10 @@ pub fn chi2_quantile(dof: f64, z: f64) -> f64 {
 
 /// NEES of a 3-D error block of the covariance.
 pub fn nees3(err: &Vec3, p: &ego_ekf::state::Covariance, start: usize) -> f64 {
-    let block = p.fixed_view::<3, 3>(start, start).into_owned().cast::<f64>();
+    let block = p
+        .fixed_view::<3, 3>(start, start)
+        .into_owned()
+        .cast::<f64>();
     let e = err.cast::<f64>();
     match block.try_inverse() {
         Some(inv) => (e.transpose() * inv * e)[(0, 0)],
