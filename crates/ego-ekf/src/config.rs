@@ -152,7 +152,9 @@ impl Default for InitConfig {
             position_std: 0.001,
             accel_bias_std: 0.05,
             gyro_bias_std: 0.005,
-            gravity_std: 0.01,
+            // Gravity's direction defines the world's z; only its size is
+            // uncertain, and little.
+            gravity_std: 0.001,
         }
     }
 }

@@ -66,18 +66,18 @@ fn check<const M: usize>(build: impl Fn(&NominalState) -> Measurement<M>, z: SVe
 fn wheel_jacobian_matches_finite_differences() {
     // The filter passes the gyro corrected by the current bias estimate.
     let raw = Vec3::new(0.05, -0.04, 0.9);
-    // Rates that agree with the gyro's yaw rate, where the differential
-    // row's instrumental-variable Jacobian equals the exact one.
+    // Rates that agree with the state's prediction, where the radius
+    // columns (evaluated at the predicted rates) equal the exact Jacobian.
     let x = state();
-    let m = wheel_measurement(
-        &x,
-        &(raw - x.gyro_bias),
-        &WheelRates::new(Timestamp(1), 5.0, 0.0).unwrap(),
-        &GripParams::default(),
-    );
-    let h_diff_at_zero = -m.residual[1];
-    let wr = h_diff_at_zero / x.radius_right;
-    let rates = WheelRates::new(Timestamp(1), 5.0, wr).unwrap();
+    let zero = WheelRates::new(Timestamp(1), 0.0, 0.0).unwrap();
+    let m = wheel_measurement(&x, &(raw - x.gyro_bias), &zero, &GripParams::default());
+    let (mid, diff) = (-m.residual[0], -m.residual[1]);
+    let rates = WheelRates::new(
+        Timestamp(1),
+        (mid - 0.5 * diff) / x.radius_left,
+        (mid + 0.5 * diff) / x.radius_right,
+    )
+    .unwrap();
     let grip = GripParams::default();
     check(
         |x| wheel_measurement(x, &(raw - x.gyro_bias), &rates, &grip),

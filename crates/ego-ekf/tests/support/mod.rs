@@ -51,6 +51,10 @@ pub struct SimNoise {
     pub gyro_density: f64,
     pub accel_bias: Vec3,
     pub gyro_bias: Vec3,
+    /// Accelerometer bias random walk, m/s^3/sqrt(Hz).
+    pub accel_random_walk: f64,
+    /// Gyroscope bias random walk, rad/s^2/sqrt(Hz).
+    pub gyro_random_walk: f64,
     /// Per-wheel forward speed noise, m/s.
     pub wheel_std: f64,
     /// Flow velocity noise, m/s (before count quantisation).
@@ -263,6 +267,13 @@ impl Sim {
             gyro[i] = (w_b[i] + self.noise.gyro_bias[i] as f64 + sg * self.rng.normal()) as f32;
         }
         let imu = ImuSample::new(t, gyro, accel).unwrap();
+        let (ra, rg) = (
+            self.noise.accel_random_walk * dt.sqrt(),
+            self.noise.gyro_random_walk * dt.sqrt(),
+        );
+        let (da, dg) = (self.rng.vec3(ra), self.rng.vec3(rg));
+        self.noise.accel_bias += da;
+        self.noise.gyro_bias += dg;
 
         // Wheels at 50 Hz: forward speed of each contact point, robot frame.
         let wheel = self.k.is_multiple_of(5).then(|| {
