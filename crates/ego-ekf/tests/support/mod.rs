@@ -1,7 +1,7 @@
 //! A small simulator for the filter tests: a differential-drive robot on a
 //! plane driving curves with stops, an IMU with white noise and constant
 //! biases at 250 Hz, wheel rates with noise at 50 Hz, and a downward flow
-//! sensor at 100 Hz. Seeded, deterministic.
+//! sensor at 25 Hz. Seeded, deterministic.
 #![allow(dead_code)]
 
 use ego_ekf::state::{Quat, STANDARD_GRAVITY, Vec3};
