@@ -229,7 +229,6 @@ impl EgoEkf {
         let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         propagate_covariance(&mut self.p, &f, &q);
-        covariance::symmetrize(&mut self.p);
 
         let zc = self.config.zupt;
         let still = self.still.step(
