@@ -102,43 +102,40 @@ const _: () = assert!(P == 0 && V == 3 && TH == 6);
 /// `P <- F P F^T + Q` for a symmetric `P`, using only the non-identity
 /// blocks of `F`.
 ///
-/// `F` changes only the block rows (and columns) of position, velocity and
-/// attitude. So: the block rows are replaced by `F P` over all columns; the
-/// block columns of every other row then follow by symmetry (a transposed
-/// copy); only the 9x9 block of those rows and columns needs the column
-/// operations `(F P) F^T`. The result is exactly symmetric if `P` was.
+/// `F` changes only the block rows and columns of position, velocity and
+/// attitude. So: those block columns are replaced by `P F^T` over all rows
+/// (contiguous columns in nalgebra's column-major storage); the block rows of
+/// every other column follow by symmetry (a transposed copy); only the 9x9
+/// block of those rows and columns needs the row operations `F (P F^T)`.
+/// The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
-    // Rows: P <- F P. Each block row reads the old rows it depends on.
-    let r_v = p.fixed_rows::<3>(V).into_owned();
-    let r_th = p.fixed_rows::<3>(TH).into_owned();
-    let r_ba = p.fixed_rows::<3>(BA);
-    let r_bg = p.fixed_rows::<3>(BG);
-    let r_g = p.fixed_rows::<3>(G);
-    let new_v = r_v + f.f_vth * r_th + f.f_vba * r_ba + r_g * dt;
-    let new_th = f.f_thth * r_th - r_bg * dt;
-    let mut rows = p.fixed_rows_mut::<3>(P);
-    rows += r_v * dt;
-    p.fixed_rows_mut::<3>(V).copy_from(&new_v);
-    p.fixed_rows_mut::<3>(TH).copy_from(&new_th);
-    // Columns of the other rows: by symmetry, the transposed new rows.
-    let moved = p.fixed_rows::<9>(P).transpose();
-    p.fixed_view_mut::<{ DIM - 9 }, 9>(9, 0)
-        .copy_from(&moved.fixed_rows::<{ DIM - 9 }>(9));
-    // The 9x9 block (rows P, V, TH): (F P) F^T on its columns, with the
-    // columns BA, BG, G of these rows taken from the rows just computed.
-    let a = p.fixed_rows::<9>(P).into_owned();
-    let c_v = a.fixed_columns::<3>(V);
-    let c_th = a.fixed_columns::<3>(TH);
-    let c_ba = a.fixed_columns::<3>(BA);
-    let c_bg = a.fixed_columns::<3>(BG);
-    let c_g = a.fixed_columns::<3>(G);
-    let new_p = a.fixed_columns::<3>(P) + c_v * dt;
+    // Columns: P <- P F^T. Each block column reads the old columns it uses.
+    let c_v = p.fixed_columns::<3>(V).into_owned();
+    let c_th = p.fixed_columns::<3>(TH).into_owned();
+    let c_ba = p.fixed_columns::<3>(BA);
+    let c_bg = p.fixed_columns::<3>(BG);
+    let c_g = p.fixed_columns::<3>(G);
     let new_v = c_v + c_th * f.f_vth.transpose() + c_ba * f.f_vba.transpose() + c_g * dt;
     let new_th = c_th * f.f_thth.transpose() - c_bg * dt;
-    p.fixed_view_mut::<9, 3>(P, P).copy_from(&new_p);
-    p.fixed_view_mut::<9, 3>(P, V).copy_from(&new_v);
-    p.fixed_view_mut::<9, 3>(P, TH).copy_from(&new_th);
+    let mut cols = p.fixed_columns_mut::<3>(P);
+    cols += c_v * dt;
+    p.fixed_columns_mut::<3>(V).copy_from(&new_v);
+    p.fixed_columns_mut::<3>(TH).copy_from(&new_th);
+    // Rows of the other columns: by symmetry, the transposed new columns.
+    let moved = p.fixed_view::<{ DIM - 9 }, 9>(9, 0).transpose();
+    p.fixed_view_mut::<9, { DIM - 9 }>(0, 9).copy_from(&moved);
+    // The 9x9 block: F (P F^T) on its rows, with the rows BA, BG, G of these
+    // columns taken from the columns just computed.
+    let a = p.fixed_columns::<9>(P).into_owned();
+    let r_v = a.fixed_rows::<3>(V);
+    let r_th = a.fixed_rows::<3>(TH);
+    let new_p = a.fixed_rows::<3>(P) + r_v * dt;
+    let new_v = r_v + f.f_vth * r_th + f.f_vba * a.fixed_rows::<3>(BA) + a.fixed_rows::<3>(G) * dt;
+    let new_th = f.f_thth * r_th - a.fixed_rows::<3>(BG) * dt;
+    p.fixed_view_mut::<3, 9>(P, P).copy_from(&new_p);
+    p.fixed_view_mut::<3, 9>(V, P).copy_from(&new_v);
+    p.fixed_view_mut::<3, 9>(TH, P).copy_from(&new_th);
     // Make the 9x9 block exactly symmetric (rounding of the two products).
     let block = p.fixed_view::<9, 9>(P, P).into_owned();
     p.fixed_view_mut::<9, 9>(P, P)
