@@ -37,19 +37,28 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
 /// taken as a measurement of the pose with that tiny variance, which keeps
 /// `P` positive definite in `f32` (an exact copy makes it singular).
 pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude: f32) {
-    let rows_p = p.fixed_rows::<3>(P).into_owned();
-    let rows_th = p.fixed_rows::<3>(TH).into_owned();
-    p.fixed_rows_mut::<3>(CP).copy_from(&rows_p);
-    p.fixed_rows_mut::<3>(CTH).copy_from(&rows_th);
+    // Columns (contiguous) first, then the rows by symmetry, then the
+    // clone-clone block from the pose-pose block.
     let cols_p = p.fixed_columns::<3>(P).into_owned();
     let cols_th = p.fixed_columns::<3>(TH).into_owned();
     p.fixed_columns_mut::<3>(CP).copy_from(&cols_p);
     p.fixed_columns_mut::<3>(CTH).copy_from(&cols_th);
-    let mut block = p.fixed_view_mut::<3, 3>(CP, CP);
-    block += Matrix3::identity() * copy_var_position;
-    let mut block = p.fixed_view_mut::<3, 3>(CTH, CTH);
-    block += Matrix3::identity() * copy_var_attitude;
+    let rows = p.fixed_columns::<6>(CP).transpose();
+    p.fixed_rows_mut::<6>(CP).copy_from(&rows);
+    let pp = p.fixed_view::<3, 3>(P, P).into_owned();
+    let pt = p.fixed_view::<3, 3>(P, TH).into_owned();
+    let tt = p.fixed_view::<3, 3>(TH, TH).into_owned();
+    let i3 = Matrix3::<f32>::identity();
+    p.fixed_view_mut::<3, 3>(CP, CP)
+        .copy_from(&(pp + i3 * copy_var_position));
+    p.fixed_view_mut::<3, 3>(CP, CTH).copy_from(&pt);
+    p.fixed_view_mut::<3, 3>(CTH, CP).copy_from(&pt.transpose());
+    p.fixed_view_mut::<3, 3>(CTH, CTH)
+        .copy_from(&(tt + i3 * copy_var_attitude));
 }
+
+// The clone's position and attitude are adjacent.
+const _: () = assert!(CTH == CP + 3);
 
 /// Whether `p` is finite, symmetric (relative tolerance `1e-5`) and has a
 /// positive diagonal: the cheap check run after every step in debug builds.

@@ -110,18 +110,26 @@ const _: () = assert!(P == 0 && V == 3 && TH == 6);
 /// The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
-    // Columns: P <- P F^T. Each block column reads the old columns it uses.
-    let c_v = p.fixed_columns::<3>(V).into_owned();
-    let c_th = p.fixed_columns::<3>(TH).into_owned();
-    let c_ba = p.fixed_columns::<3>(BA);
-    let c_bg = p.fixed_columns::<3>(BG);
-    let c_g = p.fixed_columns::<3>(G);
-    let new_v = c_v + c_th * f.f_vth.transpose() + c_ba * f.f_vba.transpose() + c_g * dt;
-    let new_th = c_th * f.f_thth.transpose() - c_bg * dt;
-    let mut cols = p.fixed_columns_mut::<3>(P);
-    cols += c_v * dt;
-    p.fixed_columns_mut::<3>(V).copy_from(&new_v);
-    p.fixed_columns_mut::<3>(TH).copy_from(&new_th);
+    // Columns: P <- P F^T, one row at a time, in registers: each row's new
+    // position, velocity and attitude entries from its first 18 entries.
+    let (a_vth, a_vba, a_thth) = (
+        f.f_vth.transpose(),
+        f.f_vba.transpose(),
+        f.f_thth.transpose(),
+    );
+    for i in 0..DIM {
+        let r = p.fixed_view::<1, 18>(i, 0).into_owned();
+        let r_v = r.fixed_columns::<3>(V);
+        let r_th = r.fixed_columns::<3>(TH);
+        let new_p = r.fixed_columns::<3>(P) + r_v * dt;
+        let new_v =
+            r_v + r_th * a_vth + r.fixed_columns::<3>(BA) * a_vba + r.fixed_columns::<3>(G) * dt;
+        let new_th = r_th * a_thth - r.fixed_columns::<3>(BG) * dt;
+        let mut out = p.fixed_view_mut::<1, 9>(i, 0);
+        out.fixed_columns_mut::<3>(P).copy_from(&new_p);
+        out.fixed_columns_mut::<3>(V).copy_from(&new_v);
+        out.fixed_columns_mut::<3>(TH).copy_from(&new_th);
+    }
     // Rows of the other columns: by symmetry, the transposed new columns.
     let moved = p.fixed_view::<{ DIM - 9 }, 9>(9, 0).transpose();
     p.fixed_view_mut::<9, { DIM - 9 }>(0, 9).copy_from(&moved);
