@@ -1,8 +1,17 @@
 //! # ego-ekf
 //!
-//! `#![no_std]` 250 Hz error-state EKF for a ground robot: IMU state, a pose
+//! `#![no_std]` 250 Hz error-state EKF for a ground robot (Solà, "Quaternion
+//! kinematics for the error-state Kalman filter", 2017): IMU state, a pose
 //! clone and robot state (wheel contact points, body-to-robot rotation, wheel
-//! radii), with surface-aware wheel-velocity fusion. Built in its own issue.
+//! radii), with surface-aware wheel-velocity fusion, optical flow and
+//! zero-velocity updates. No allocator, `f32`.
+//!
+//! - [`state`]: the state and its indices, defined once;
+//! - [`propagate`]: IMU propagation, block-structured covariance;
+//! - [`update`]: the shared gated update; [`covariance`]: reset, clone, checks;
+//! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
+//!   fuse* apart from *the maths*;
+//! - [`filter`]: [`EgoEkf`], the type users call.
 #![no_std]
 #![cfg_attr(
     not(test),
@@ -14,7 +23,24 @@
     )
 )]
 
-pub mod grip;
-pub use grip::{GripError, GripParams};
+pub mod config;
+pub mod covariance;
 pub mod events;
+pub mod filter;
+pub mod flow;
+pub mod grip;
+pub mod init;
+pub mod propagate;
+pub mod state;
 pub mod surface;
+pub mod update;
+pub mod wheel;
+pub mod zupt;
+
+pub use config::{
+    ConfigError, FilterConfig, FlowConfig, ImuNoise, InitConfig, RobotPrior, ZuptConfig,
+};
+pub use filter::{EgoEkf, ExplicitStart, Filter, ImuStep};
+pub use flow::FlowFused;
+pub use grip::{GripError, GripParams};
+pub use wheel::WheelInnovation;

@@ -1,0 +1,118 @@
+//! Benchmarks of the ego-state EKF: one IMU propagation (nominal state and
+//! the full 35x35 covariance, block-structured; the dense `F P F^T + Q`
+//! reference for comparison) and one wheel update (full covariance).
+//! Setup (a filter warmed up on seeded samples) is outside the timer.
+#![allow(missing_docs)]
+
+use std::hint::black_box;
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use ego_ekf::propagate::{
+    Transition, process_noise, propagate_covariance, propagate_covariance_dense,
+};
+use ego_ekf::state::{Quat, Vec3};
+use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
+use vslam_core::Timestamp;
+use vslam_core::sensors::{ImuSample, WheelRates};
+
+const DT: u64 = 4_000_000;
+
+/// A filter after 2 s of seeded driving, so the covariance is dense.
+fn warmed_up() -> (EgoEkf, u64) {
+    let mut f = EgoEkf::new(FilterConfig::default()).unwrap();
+    f.start(&ExplicitStart {
+        t: Timestamp(0),
+        p_wb: Vec3::zeros(),
+        v_wb: Vec3::zeros(),
+        q_wb: Quat::identity(),
+        accel_bias: Vec3::zeros(),
+        gyro_bias: Vec3::zeros(),
+    })
+    .unwrap();
+    let mut seed = 0x1234_5678u32;
+    let mut noise = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        (seed as f32 / u32::MAX as f32 - 0.5) * 0.02
+    };
+    let mut k = 0;
+    for i in 1..=500u64 {
+        k = i;
+        let s = ImuSample::new(
+            Timestamp(i * DT),
+            [noise(), noise(), 0.3 + noise()],
+            [0.2 + noise(), 0.06 + noise(), 9.81 + noise()],
+        )
+        .unwrap();
+        let _ = f.propagate(&s);
+        if i % 5 == 0 {
+            let _ = f.fuse_wheel(&WheelRates::new(Timestamp(i * DT), 4.0, 5.0).unwrap());
+        }
+    }
+    (f, k)
+}
+
+fn benches(c: &mut Criterion) {
+    let (filter, k) = warmed_up();
+    let sample = ImuSample::new(
+        Timestamp((k + 1) * DT),
+        [0.01, -0.02, 0.3],
+        [0.2, 0.06, 9.81],
+    )
+    .unwrap();
+    c.bench_function("ekf/propagate (nominal + 35x35 covariance + clone)", |b| {
+        b.iter_batched(
+            || filter.clone(),
+            |mut f| {
+                let _ = black_box(f.propagate(black_box(&sample)));
+                f
+            },
+            BatchSize::SmallInput,
+        )
+    });
+
+    let x = *filter.state();
+    let r = x.q_wb.to_rotation_matrix().into_inner();
+    let tr = Transition::new(
+        &r,
+        &Vec3::new(0.2, 0.06, 9.81),
+        &Vec3::new(0.01, -0.02, 0.3),
+        0.004,
+    );
+    let q = process_noise(
+        &FilterConfig::default().imu_noise,
+        &FilterConfig::default().robot,
+        0.004,
+    );
+    let p0 = *filter.covariance();
+    c.bench_function("ekf/covariance block F P F^T + Q", |b| {
+        b.iter_batched_ref(
+            || p0,
+            |p| propagate_covariance(black_box(p), black_box(&tr), black_box(&q)),
+            BatchSize::SmallInput,
+        )
+    });
+    c.bench_function("ekf/covariance dense F P F^T + Q (reference)", |b| {
+        b.iter_batched_ref(
+            || p0,
+            |p| propagate_covariance_dense(black_box(p), black_box(&tr), black_box(&q)),
+            BatchSize::SmallInput,
+        )
+    });
+
+    let rates = WheelRates::new(Timestamp((k + 1) * DT), 4.1, 4.9).unwrap();
+    c.bench_function("ekf/wheel update (4 rows, full covariance)", |b| {
+        b.iter_batched(
+            || filter.clone(),
+            |mut f| {
+                let _ = black_box(f.fuse_wheel(black_box(&rates)));
+                f
+            },
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+criterion_group!(ekf, benches);
+criterion_main!(ekf);

@@ -1,0 +1,330 @@
+//! Filter configuration: IMU noise densities, time limits, the robot prior,
+//! the still detector and the flow sensor. Checked once by [`FilterConfig::check`].
+
+use core::fmt;
+
+use vslam_core::sensors::FlowOptics;
+
+use crate::grip::GripParams;
+use crate::state::{Quat, Vec3};
+
+/// IMU noise densities and bias random walks (continuous time), as in a
+/// Kalibr / EuRoC `imu.yaml`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuNoise {
+    /// Accelerometer white noise density, m/s^2/sqrt(Hz).
+    pub accel_density: f32,
+    /// Gyroscope white noise density, rad/s/sqrt(Hz).
+    pub gyro_density: f32,
+    /// Accelerometer bias random walk, m/s^3/sqrt(Hz).
+    pub accel_random_walk: f32,
+    /// Gyroscope bias random walk, rad/s^2/sqrt(Hz).
+    pub gyro_random_walk: f32,
+}
+
+impl Default for ImuNoise {
+    /// A consumer MEMS IMU (BMI088 / ICM-42688 class).
+    fn default() -> Self {
+        ImuNoise {
+            accel_density: 2.0e-3,
+            gyro_density: 2.0e-4,
+            accel_random_walk: 3.0e-4,
+            gyro_random_walk: 2.0e-5,
+        }
+    }
+}
+
+/// The robot's mechanical prior: where the wheels touch the floor seen from
+/// the IMU, how the IMU is turned in the chassis, the wheel radii, and how
+/// well each is known.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RobotPrior {
+    /// Left wheel contact point in the IMU frame, m.
+    pub p_bl: Vec3,
+    /// Right wheel contact point in the IMU frame, m.
+    pub p_br: Vec3,
+    /// Rotation of IMU vectors into the robot frame.
+    pub q_rb: Quat,
+    /// Nominal wheel radius (both wheels), m.
+    pub radius: f32,
+    /// Standard deviation of each contact-point coordinate, m.
+    pub contact_std: f32,
+    /// Standard deviation of each body-to-robot rotation angle, rad.
+    pub rotation_std: f32,
+    /// Standard deviation of each wheel radius, m.
+    pub radius_std: f32,
+    /// Random walk of the wheel radii (wear, load), m/sqrt(s).
+    pub radius_random_walk: f32,
+    /// Random walk of the contact points (tyre deformation), m/sqrt(s).
+    pub contact_random_walk: f32,
+    /// Random walk of the body-to-robot rotation (mount flex), rad/sqrt(s).
+    pub rotation_random_walk: f32,
+}
+
+impl Default for RobotPrior {
+    /// A robot vacuum: 35 mm wheels, 230 mm track, IMU 60 mm above the floor on the axle.
+    fn default() -> Self {
+        RobotPrior {
+            p_bl: Vec3::new(0.0, 0.115, -0.06),
+            p_br: Vec3::new(0.0, -0.115, -0.06),
+            q_rb: Quat::identity(),
+            radius: 0.035,
+            contact_std: 0.003,
+            rotation_std: 0.01,
+            radius_std: 0.001,
+            radius_random_walk: 1.0e-6,
+            contact_random_walk: 1.0e-6,
+            rotation_random_walk: 1.0e-6,
+        }
+    }
+}
+
+/// When the robot counts as still, and how zero-velocity updates are made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZuptConfig {
+    /// Largest wheel rate, rad/s, that counts as stopped.
+    pub max_wheel_rate: f32,
+    /// Largest bias-corrected gyro norm, rad/s, that counts as still.
+    pub max_gyro: f32,
+    /// Largest deviation of the specific-force norm from gravity, m/s^2.
+    pub max_accel_deviation: f32,
+    /// IMU samples in a row that must look still before the robot is still.
+    pub still_samples: u16,
+    /// A zero-velocity update every this many IMU samples while still.
+    pub every: u16,
+    /// Velocity noise of the update, m/s.
+    pub velocity_std: f32,
+    /// Position noise of the pose-equals-clone update, m.
+    pub position_std: f32,
+    /// Attitude noise of the pose-equals-clone update, rad.
+    pub attitude_std: f32,
+}
+
+impl Default for ZuptConfig {
+    fn default() -> Self {
+        ZuptConfig {
+            max_wheel_rate: 0.01,
+            max_gyro: 0.02,
+            max_accel_deviation: 0.3,
+            still_samples: 50,
+            every: 10,
+            velocity_std: 0.005,
+            position_std: 0.001,
+            attitude_std: 0.001,
+        }
+    }
+}
+
+/// Initialisation from the first still IMU samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InitConfig {
+    /// Still samples averaged for the gravity direction and the gyro bias.
+    pub samples: u16,
+    /// Largest gyro norm, rad/s, of a sample that counts as still.
+    pub max_gyro: f32,
+    /// Largest deviation of the specific-force norm from gravity, m/s^2.
+    pub max_accel_deviation: f32,
+    /// Initial attitude standard deviation (roll, pitch), rad.
+    pub tilt_std: f32,
+    /// Initial yaw standard deviation, rad.
+    pub yaw_std: f32,
+    /// Initial velocity standard deviation, m/s.
+    pub velocity_std: f32,
+    /// Initial position standard deviation, m.
+    pub position_std: f32,
+    /// Initial accelerometer bias standard deviation, m/s^2.
+    pub accel_bias_std: f32,
+    /// Initial gyro bias standard deviation, rad/s.
+    pub gyro_bias_std: f32,
+    /// Initial gravity standard deviation, m/s^2.
+    pub gravity_std: f32,
+}
+
+impl Default for InitConfig {
+    fn default() -> Self {
+        InitConfig {
+            samples: 50,
+            max_gyro: 0.05,
+            max_accel_deviation: 0.5,
+            tilt_std: 0.01,
+            yaw_std: 0.01,
+            velocity_std: 0.01,
+            position_std: 0.001,
+            accel_bias_std: 0.05,
+            gyro_bias_std: 0.005,
+            // Gravity's direction defines the world's z; only its size is
+            // uncertain, and little.
+            gravity_std: 0.001,
+        }
+    }
+}
+
+/// The optical-flow sensor: optics, noise model and gate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowConfig {
+    /// Resolution, height and mounting `T_BS` in the robot frame.
+    pub optics: FlowOptics,
+    /// Velocity noise at good quality, m/s.
+    pub base_std: f32,
+    /// Relative velocity noise (height and resolution error), 1.
+    pub relative_std: f32,
+    /// SQUAL at and above which the quality adds no noise.
+    pub squal_good: u8,
+    /// Shutter at and below which the exposure adds no noise.
+    pub shutter_good: u16,
+    /// Chi-square gate of the 2-D velocity (99 % = 9.21).
+    pub gate: f32,
+    /// Largest step between flow reports, ns.
+    pub max_dt_ns: u64,
+}
+
+impl FlowConfig {
+    /// Defaults for a PMW3901-class sensor with the given optics.
+    pub fn new(optics: FlowOptics) -> Self {
+        FlowConfig {
+            optics,
+            base_std: 0.01,
+            relative_std: 0.03,
+            squal_good: 100,
+            shutter_good: 0x0400,
+            gate: 9.21,
+            max_dt_ns: 100_000_000,
+        }
+    }
+}
+
+/// Everything the filter needs to know before the first sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterConfig {
+    /// IMU noise.
+    pub imu_noise: ImuNoise,
+    /// Largest accepted IMU step, ns (larger steps are [`vslam_core::Reject::Gap`]).
+    pub imu_max_dt_ns: u64,
+    /// Largest plausible angular rate, rad/s; larger is [`vslam_core::Reject::OutOfRange`].
+    pub imu_gyro_max: f32,
+    /// Largest plausible specific force, m/s^2; larger is [`vslam_core::Reject::OutOfRange`].
+    pub imu_accel_max: f32,
+    /// Largest accepted step between wheel samples, ns.
+    pub wheel_max_dt_ns: u64,
+    /// Robot prior.
+    pub robot: RobotPrior,
+    /// Initialisation.
+    pub init: InitConfig,
+    /// Still detection and zero-velocity updates.
+    pub zupt: ZuptConfig,
+    /// The flow sensor, if the robot has one.
+    pub flow: Option<FlowConfig>,
+    /// Grip before the surface model says otherwise.
+    pub grip: GripParams,
+    /// Magnitude of gravity, m/s^2.
+    pub gravity: f32,
+}
+
+impl Default for FilterConfig {
+    fn default() -> Self {
+        FilterConfig {
+            imu_noise: ImuNoise::default(),
+            imu_max_dt_ns: 20_000_000,
+            imu_gyro_max: 35.0,
+            imu_accel_max: 160.0,
+            wheel_max_dt_ns: 200_000_000,
+            robot: RobotPrior::default(),
+            init: InitConfig::default(),
+            zupt: ZuptConfig::default(),
+            flow: None,
+            grip: GripParams::default(),
+            gravity: crate::state::STANDARD_GRAVITY,
+        }
+    }
+}
+
+/// Why a configuration was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConfigError {
+    /// A noise density, standard deviation or random walk is not finite and positive.
+    BadNoise,
+    /// A wheel radius or gravity is not finite and positive, or a vector is not finite.
+    BadGeometry,
+    /// A step limit or a sample count is zero.
+    BadLimit,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ConfigError::BadNoise => "noise parameters must be finite and positive",
+            ConfigError::BadGeometry => "robot geometry and gravity must be finite (and positive)",
+            ConfigError::BadLimit => "step limits and sample counts must be non-zero",
+        })
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+fn positive(v: f32) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl FilterConfig {
+    /// Checks every field once so the filter need not check again.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let n = &self.imu_noise;
+        let i = &self.init;
+        let z = &self.zupt;
+        let r = &self.robot;
+        let noise = [
+            n.accel_density,
+            n.gyro_density,
+            n.accel_random_walk,
+            n.gyro_random_walk,
+            i.tilt_std,
+            i.yaw_std,
+            i.velocity_std,
+            i.position_std,
+            i.accel_bias_std,
+            i.gyro_bias_std,
+            i.gravity_std,
+            i.max_gyro,
+            i.max_accel_deviation,
+            z.max_wheel_rate,
+            z.max_gyro,
+            z.max_accel_deviation,
+            z.velocity_std,
+            z.position_std,
+            z.attitude_std,
+            r.contact_std,
+            r.rotation_std,
+            r.radius_std,
+            r.radius_random_walk,
+            r.contact_random_walk,
+            r.rotation_random_walk,
+            self.imu_gyro_max,
+            self.imu_accel_max,
+        ];
+        let flow_noise = self
+            .flow
+            .map_or([1.0; 3], |f| [f.base_std, f.relative_std, f.gate]);
+        if self.flow.is_some_and(|f| f.max_dt_ns == 0) {
+            return Err(ConfigError::BadLimit);
+        }
+        if !noise.iter().chain(flow_noise.iter()).all(|v| positive(*v)) {
+            return Err(ConfigError::BadNoise);
+        }
+        let vectors_finite = [&r.p_bl, &r.p_br]
+            .iter()
+            .all(|v| v.iter().all(|x| x.is_finite()))
+            && r.q_rb.coords.iter().all(|x| x.is_finite());
+        if !vectors_finite || !positive(r.radius) || !positive(self.gravity) {
+            return Err(ConfigError::BadGeometry);
+        }
+        if self.imu_max_dt_ns == 0
+            || self.wheel_max_dt_ns == 0
+            || i.samples == 0
+            || z.still_samples == 0
+            || z.every == 0
+        {
+            return Err(ConfigError::BadLimit);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,460 @@
+//! The filter: one type that takes IMU, wheel and flow samples, owns the
+//! state, covariance, grip and per-sensor status, and reports the estimate.
+
+use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
+use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
+
+use crate::config::{ConfigError, FilterConfig};
+use crate::covariance;
+use crate::flow::{FlowFused, FlowFusion};
+use crate::grip::GripParams;
+use crate::init::{Initialiser, StillStart};
+use crate::propagate::{
+    Transition, process_noise, propagate_covariance, propagate_nominal, vertical_deviation,
+};
+use crate::state::{
+    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
+};
+use crate::update::gated_update;
+use crate::wheel::{WheelFusion, WheelInnovation};
+use crate::zupt::StillDetector;
+use crate::zupt::model::zupt_measurement;
+
+/// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
+const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
+/// Variance of the clone's copy of the attitude, rad^2.
+const CLONE_COPY_VAR_ATTITUDE: f32 = 1.0e-8;
+
+/// One IMU step's output: the bias-corrected sample and what the events
+/// module needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuStep {
+    /// Time of the sample.
+    pub t: Timestamp,
+    /// Step integrated, s.
+    pub dt: f32,
+    /// Bias-corrected angular rate, body frame, rad/s.
+    pub gyro: Vec3,
+    /// Bias-corrected specific force, body frame, m/s^2.
+    pub accel: Vec3,
+    /// Vertical specific-force deviation `|(R a + g)_z|`, m/s^2 (jolts).
+    pub vertical_deviation: f32,
+    /// Whether the robot was still at this step (a ZUPT may have run).
+    pub still: bool,
+}
+
+/// An explicit start state (instead of the still-sample initialisation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExplicitStart {
+    /// Time of the state.
+    pub t: Timestamp,
+    /// IMU position, world, m.
+    pub p_wb: Vec3,
+    /// IMU velocity, world, m/s.
+    pub v_wb: Vec3,
+    /// IMU attitude.
+    pub q_wb: Quat,
+    /// Accelerometer bias, m/s^2.
+    pub accel_bias: Vec3,
+    /// Gyroscope bias, rad/s.
+    pub gyro_bias: Vec3,
+}
+
+/// The 250 Hz surface-aware error-state EKF.
+#[derive(Clone, Debug)]
+pub struct EgoEkf {
+    config: FilterConfig,
+    x: NominalState,
+    p: Covariance,
+    grip: GripParams,
+    initialised: bool,
+    initialiser: Initialiser,
+    imu_clock: SampleClock,
+    imu_counts: SampleCounts,
+    last_step: Option<ImuStep>,
+    still: StillDetector,
+    wheel: WheelFusion,
+    flow: FlowFusion,
+}
+
+/// Short name of [`EgoEkf`].
+pub type Filter = EgoEkf;
+
+impl EgoEkf {
+    /// A filter waiting for still IMU samples (or [`EgoEkf::start`]).
+    pub fn new(config: FilterConfig) -> Result<Self, ConfigError> {
+        config.check()?;
+        let r = &config.robot;
+        let x = NominalState {
+            p_wb: Vec3::zeros(),
+            v_wb: Vec3::zeros(),
+            q_wb: Quat::identity(),
+            accel_bias: Vec3::zeros(),
+            gyro_bias: Vec3::zeros(),
+            gravity: Vec3::new(0.0, 0.0, -config.gravity),
+            clone_p_wb: Vec3::zeros(),
+            clone_q_wb: Quat::identity(),
+            p_bl: r.p_bl,
+            p_br: r.p_br,
+            q_rb: r.q_rb,
+            radius_left: r.radius,
+            radius_right: r.radius,
+        };
+        Ok(EgoEkf {
+            x,
+            p: Covariance::identity(),
+            grip: config.grip,
+            initialised: false,
+            initialiser: Initialiser::new(),
+            imu_clock: SampleClock::new(config.imu_max_dt_ns),
+            imu_counts: SampleCounts::new(),
+            last_step: None,
+            still: StillDetector::new(),
+            wheel: WheelFusion::new(config.wheel_max_dt_ns, config.zupt.max_wheel_rate),
+            flow: FlowFusion::new(config.flow.map_or(1, |f| f.max_dt_ns)),
+            config,
+        })
+    }
+
+    /// Starts from an explicit state, with the configured initial standard
+    /// deviations; any still-sample averaging is dropped.
+    pub fn start(&mut self, start: &ExplicitStart) -> Result<(), Reject> {
+        let v = [
+            &start.p_wb,
+            &start.v_wb,
+            &start.accel_bias,
+            &start.gyro_bias,
+        ];
+        if !v.iter().all(|v| v.iter().all(|x| x.is_finite()))
+            || !start.q_wb.coords.iter().all(|x| x.is_finite())
+        {
+            return Err(Reject::NonFinite);
+        }
+        self.x.p_wb = start.p_wb;
+        self.x.v_wb = start.v_wb;
+        self.x.q_wb = start.q_wb;
+        self.x.accel_bias = start.accel_bias;
+        self.x.gyro_bias = start.gyro_bias;
+        self.begin(start.t);
+        Ok(())
+    }
+
+    fn start_still(&mut self, t: Timestamp, s: &StillStart) {
+        self.x.p_wb = Vec3::zeros();
+        self.x.v_wb = Vec3::zeros();
+        self.x.q_wb = s.q_wb;
+        self.x.accel_bias = Vec3::zeros();
+        self.x.gyro_bias = s.gyro_bias;
+        self.begin(t);
+    }
+
+    fn begin(&mut self, t: Timestamp) {
+        let i = &self.config.init;
+        let r = &self.config.robot;
+        let mut d = crate::state::ErrorState::zeros();
+        let blocks = [
+            (P, 3, i.position_std),
+            (V, 3, i.velocity_std),
+            (TH, 2, i.tilt_std),
+            (TH + 2, 1, i.yaw_std),
+            (BA, 3, i.accel_bias_std),
+            (BG, 3, i.gyro_bias_std),
+            (crate::state::G, 3, i.gravity_std),
+            (CL, 6, r.contact_std),
+            (RB, 3, r.rotation_std),
+            (RAD_L, 2, r.radius_std),
+        ];
+        for (start, len, std) in blocks {
+            d.rows_mut(start, len).fill(std * std);
+        }
+        self.p = Covariance::from_diagonal(&d);
+        self.x.clone_pose();
+        covariance::clone_pose(
+            &mut self.p,
+            CLONE_COPY_VAR_POSITION,
+            CLONE_COPY_VAR_ATTITUDE,
+        );
+        self.imu_clock.reset();
+        // Anchor the IMU clock at the start time; cannot fail after a reset.
+        let _ = self.imu_clock.accept(t);
+        self.initialiser.restart();
+        self.still = StillDetector::new();
+        self.initialised = true;
+    }
+
+    /// Propagates with one IMU sample (bias-corrected first), runs the still
+    /// detector, the clone and, when due, a zero-velocity update.
+    ///
+    /// Before initialisation the sample feeds the still-sample average and is
+    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
+    /// beyond the configured range are rejected with their reason and leave
+    /// the state untouched.
+    pub fn propagate(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
+        let outcome = self.propagate_inner(sample);
+        self.imu_counts.record(outcome.map(|_| ()));
+        if let Ok(step) = outcome {
+            self.last_step = Some(step);
+        }
+        debug_assert!(covariance::looks_valid(&self.p));
+        outcome
+    }
+
+    fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
+        if sample.gyro().amax() > self.config.imu_gyro_max
+            || sample.accel().amax() > self.config.imu_accel_max
+        {
+            return Err(Reject::OutOfRange);
+        }
+        let dt = self.imu_clock.accept(sample.t());
+        if !self.initialised {
+            dt?;
+            if let Some(s) = self.initialiser.add(
+                &self.config.init,
+                self.config.gravity,
+                sample.gyro(),
+                sample.accel(),
+            ) {
+                self.start_still(sample.t(), &s);
+            }
+            return Err(Reject::NotReady);
+        }
+        let dt = dt?.ok_or(Reject::NotReady)?;
+        if dt.is_nan() || dt <= 0.0 {
+            return Err(Reject::Duplicate);
+        }
+        let gyro = sample.gyro() - self.x.gyro_bias;
+        let accel = sample.accel() - self.x.accel_bias;
+        let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
+        let f = Transition::new(&r_wb, &accel, &gyro, dt);
+        let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
+        propagate_nominal(&mut self.x, &accel, &gyro, dt);
+        propagate_covariance(&mut self.p, &f, &q);
+
+        let zc = self.config.zupt;
+        let still = self.still.step(
+            &zc,
+            &gyro,
+            &accel,
+            self.config.gravity,
+            self.wheel.stopped(),
+        );
+        if !still {
+            self.x.clone_pose();
+            covariance::clone_pose(
+                &mut self.p,
+                CLONE_COPY_VAR_POSITION,
+                CLONE_COPY_VAR_ATTITUDE,
+            );
+        } else if self.still.update_due(&zc) {
+            let m = zupt_measurement(&self.x, &zc);
+            let outcome = gated_update(&mut self.x, &mut self.p, &m, None).map(|_| ());
+            self.still.record(outcome);
+        }
+        Ok(ImuStep {
+            t: sample.t(),
+            dt,
+            gyro,
+            accel,
+            vertical_deviation: vertical_deviation(&self.x, &accel),
+            still,
+        })
+    }
+
+    /// Fuses one wheel-rate sample; see [`crate::wheel`]. A gated forward
+    /// part still returns its innovation (with `gated` set) and is counted
+    /// as [`Reject::Gated`].
+    pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
+        if !self.initialised {
+            return Err(self.wheel.refuse(Reject::NotReady));
+        }
+        let gyro = self.angular_velocity();
+        let out = self
+            .wheel
+            .fuse(&mut self.x, &mut self.p, &gyro, rates, &self.grip);
+        debug_assert!(covariance::looks_valid(&self.p));
+        out
+    }
+
+    /// Fuses one optical-flow report; see [`crate::flow`]. Without a
+    /// configured flow sensor every report is [`Reject::NotReady`].
+    pub fn fuse_flow(&mut self, sample: &FlowSample) -> Result<FlowFused, Reject> {
+        let Some(config) = self.config.flow else {
+            return Err(self.flow.refuse(Reject::NotReady));
+        };
+        if !self.initialised {
+            return Err(self.flow.refuse(Reject::NotReady));
+        }
+        let gyro = self.angular_velocity();
+        let out = self
+            .flow
+            .fuse(&mut self.x, &mut self.p, &gyro, sample, &config);
+        debug_assert!(covariance::looks_valid(&self.p));
+        out
+    }
+
+    /// Sets the grip the surface model derived for the current floor.
+    pub fn set_grip(&mut self, grip: GripParams) {
+        self.grip = grip;
+    }
+
+    /// The current grip.
+    pub fn grip(&self) -> GripParams {
+        self.grip
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &FilterConfig {
+        &self.config
+    }
+
+    /// Whether the filter has started.
+    pub fn is_initialised(&self) -> bool {
+        self.initialised
+    }
+
+    /// Whether the robot is still (zero-velocity updates running).
+    pub fn is_still(&self) -> bool {
+        self.still.is_still(&self.config.zupt)
+    }
+
+    /// Time of the latest accepted IMU sample.
+    pub fn time(&self) -> Option<Timestamp> {
+        if self.initialised {
+            self.imu_clock.last()
+        } else {
+            None
+        }
+    }
+
+    /// The whole nominal state.
+    pub fn state(&self) -> &NominalState {
+        &self.x
+    }
+
+    /// The error-state covariance.
+    pub fn covariance(&self) -> &Covariance {
+        &self.p
+    }
+
+    /// IMU position, world, m.
+    pub fn position(&self) -> Vec3 {
+        self.x.p_wb
+    }
+
+    /// IMU attitude (body vectors into the world).
+    pub fn attitude(&self) -> Quat {
+        self.x.q_wb
+    }
+
+    /// IMU velocity, world, m/s.
+    pub fn velocity(&self) -> Vec3 {
+        self.x.v_wb
+    }
+
+    /// Velocity of the robot origin (mid-axle), robot frame, m/s.
+    pub fn robot_velocity(&self) -> Vec3 {
+        let v_b = self.x.q_wb.inverse() * self.x.v_wb;
+        self.x.q_rb * (v_b + self.angular_velocity().cross(&self.x.p_b_robot()))
+    }
+
+    /// Bias-corrected angular rate of the latest step, body frame, rad/s.
+    pub fn angular_velocity(&self) -> Vec3 {
+        self.last_step.map_or(Vec3::zeros(), |s| s.gyro)
+    }
+
+    /// Accelerometer bias, m/s^2.
+    pub fn accel_bias(&self) -> Vec3 {
+        self.x.accel_bias
+    }
+
+    /// Gyroscope bias, rad/s.
+    pub fn gyro_bias(&self) -> Vec3 {
+        self.x.gyro_bias
+    }
+
+    /// Wheel radii `[left, right]`, m.
+    pub fn wheel_radii(&self) -> [f32; 2] {
+        [self.x.radius_left, self.x.radius_right]
+    }
+
+    /// Standard deviation of error-state component `i` (`NaN` outside the state).
+    pub fn std_dev(&self, i: usize) -> f32 {
+        self.p
+            .get((i, i))
+            .map_or(f32::NAN, |v| libm::sqrtf(v.max(0.0)))
+    }
+
+    fn std3(&self, i: usize) -> Vec3 {
+        Vec3::new(self.std_dev(i), self.std_dev(i + 1), self.std_dev(i + 2))
+    }
+
+    /// Position standard deviation, m.
+    pub fn position_std(&self) -> Vec3 {
+        self.std3(P)
+    }
+
+    /// Velocity standard deviation, m/s.
+    pub fn velocity_std(&self) -> Vec3 {
+        self.std3(V)
+    }
+
+    /// Attitude standard deviation (local angles), rad.
+    pub fn attitude_std(&self) -> Vec3 {
+        self.std3(TH)
+    }
+
+    /// Accelerometer bias standard deviation, m/s^2.
+    pub fn accel_bias_std(&self) -> Vec3 {
+        self.std3(BA)
+    }
+
+    /// Gyroscope bias standard deviation, rad/s.
+    pub fn gyro_bias_std(&self) -> Vec3 {
+        self.std3(BG)
+    }
+
+    /// Wheel radius standard deviations `[left, right]`, m.
+    pub fn wheel_radius_std(&self) -> [f32; 2] {
+        [self.std_dev(RAD_L), self.std_dev(RAD_R)]
+    }
+
+    /// Contact-point standard deviations `[left, right]`, m.
+    pub fn contact_std(&self) -> [Vec3; 2] {
+        [self.std3(CL), self.std3(CR)]
+    }
+
+    /// Clone standard deviations `(position, attitude)`.
+    pub fn clone_std(&self) -> (Vec3, Vec3) {
+        (self.std3(CP), self.std3(CTH))
+    }
+
+    /// The latest IMU step (bias-corrected sample, vertical deviation).
+    pub fn last_imu_step(&self) -> Option<ImuStep> {
+        self.last_step
+    }
+
+    /// The latest wheel innovation.
+    pub fn last_wheel_innovation(&self) -> Option<WheelInnovation> {
+        self.wheel.last()
+    }
+
+    /// IMU samples propagated and rejected by reason.
+    pub fn imu_counts(&self) -> &SampleCounts {
+        &self.imu_counts
+    }
+
+    /// Wheel samples fused, gated and rejected by reason.
+    pub fn wheel_counts(&self) -> &SampleCounts {
+        self.wheel.counts()
+    }
+
+    /// Flow reports fused, gated and rejected by reason.
+    pub fn flow_counts(&self) -> &SampleCounts {
+        self.flow.counts()
+    }
+
+    /// Zero-velocity updates fused and rejected.
+    pub fn zupt_counts(&self) -> &SampleCounts {
+        self.still.counts()
+    }
+}

@@ -1,0 +1,99 @@
+//! When to fuse a flow report: time checks (the first report only opens the
+//! interval), the datasheet's validity rule ([`Reject::LowQuality`]),
+//! saturated counts ([`Reject::Saturated`]), the chi-square gate, counters.
+
+use nalgebra::Vector2;
+use vslam_core::sensors::FlowSample;
+use vslam_core::{Reject, SampleClock, SampleCounts};
+
+use crate::config::FlowConfig;
+use crate::flow::model::{flow_measurement, flow_std, flow_velocity};
+use crate::state::{Covariance, NominalState, Vec3};
+use crate::update::gated_update;
+
+/// What a fused flow report said.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowFused {
+    /// Measured robot-origin velocity (x, y), robot frame, m/s.
+    pub velocity: Vector2<f32>,
+    /// Standard deviation given to each component, m/s.
+    pub std: f32,
+    /// Normalised innovation squared (2 DOF).
+    pub nis: f32,
+}
+
+/// The flow sensor's fusion status.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowFusion {
+    clock: SampleClock,
+    counts: SampleCounts,
+}
+
+impl FlowFusion {
+    /// A fresh status accepting report intervals up to `max_dt_ns`.
+    pub fn new(max_dt_ns: u64) -> Self {
+        FlowFusion {
+            clock: SampleClock::new(max_dt_ns),
+            counts: SampleCounts::new(),
+        }
+    }
+
+    /// Samples fused, gated and rejected by reason.
+    pub fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// Counts a sample the filter refused before it reached the maths.
+    pub fn refuse(&mut self, reason: Reject) -> Reject {
+        self.counts.rejected_one(reason);
+        reason
+    }
+
+    /// Checks, gates and fuses one report.
+    pub fn fuse(
+        &mut self,
+        x: &mut NominalState,
+        p: &mut Covariance,
+        gyro: &Vec3,
+        sample: &FlowSample,
+        config: &FlowConfig,
+    ) -> Result<FlowFused, Reject> {
+        let outcome = self.fuse_inner(x, p, gyro, sample, config);
+        self.counts.record(outcome.map(|_| ()));
+        outcome
+    }
+
+    fn fuse_inner(
+        &mut self,
+        x: &mut NominalState,
+        p: &mut Covariance,
+        gyro: &Vec3,
+        sample: &FlowSample,
+        config: &FlowConfig,
+    ) -> Result<FlowFused, Reject> {
+        // The counts are since the previous report: the first one only
+        // opens the interval.
+        let dt = self.clock.accept(sample.t)?.ok_or(Reject::NotReady)?;
+        if dt.is_nan() || dt <= 0.0 {
+            return Err(Reject::Degenerate);
+        }
+        if sample.is_saturated() {
+            return Err(Reject::Saturated);
+        }
+        if !sample.is_valid() {
+            return Err(Reject::LowQuality);
+        }
+        let z = flow_velocity(sample, config, &x.q_rb, gyro, dt);
+        if !z.iter().all(|v| v.is_finite()) {
+            return Err(Reject::NonFinite);
+        }
+        let std = flow_std(sample, config, z.norm());
+        let m = flow_measurement(x, gyro, &z, std);
+        let report = gated_update(x, p, &m, Some(config.gate))?;
+        Ok(FlowFused {
+            velocity: z,
+            std,
+            nis: report.nis,
+        })
+    }
+}

@@ -1,0 +1,136 @@
+//! When to fuse a wheel sample: time checks, finite rates, the grip's gate on
+//! the forward rows, and the counters.
+//!
+//! The forward and differential rows are each tested with the grip's 1-DOF
+//! chi-square gate (`GripParams::forward_gate`); when either fails the wheels
+//! slipped and only the lateral and vertical non-holonomic rows are fused,
+//! and the sample is counted as [`Reject::Gated`]. The forward innovation and
+//! its variance are returned either way, for the surface model's grip learning.
+
+use vslam_core::sensors::WheelRates;
+use vslam_core::{Reject, SampleClock, SampleCounts};
+
+use crate::grip::GripParams;
+use crate::state::{Covariance, NominalState, Vec3};
+use crate::update::gated_update;
+use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, wheel_measurement};
+
+/// The forward wheel-velocity innovation of one wheel sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelInnovation {
+    /// Forward innovation (measured minus predicted forward speed), m/s.
+    pub forward: f32,
+    /// Its predicted variance `H P H^T + R`, (m/s)^2.
+    pub forward_var: f32,
+    /// Whether the forward rows failed the grip's gate (wheels slipped).
+    pub gated: bool,
+}
+
+/// The wheel sensor's fusion status.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelFusion {
+    clock: SampleClock,
+    counts: SampleCounts,
+    last: Option<WheelInnovation>,
+    stopped: bool,
+    stop_rate: f32,
+}
+
+impl WheelFusion {
+    /// A fresh status; rates below `stop_rate` (rad/s) on both wheels mean stopped.
+    pub fn new(max_dt_ns: u64, stop_rate: f32) -> Self {
+        WheelFusion {
+            clock: SampleClock::new(max_dt_ns),
+            counts: SampleCounts::new(),
+            last: None,
+            stopped: false,
+            stop_rate,
+        }
+    }
+
+    /// Samples fused, gated and rejected by reason.
+    pub fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// The latest innovation.
+    pub fn last(&self) -> Option<WheelInnovation> {
+        self.last
+    }
+
+    /// Whether the latest accepted sample said both wheels stand still.
+    pub fn stopped(&self) -> bool {
+        self.stopped
+    }
+
+    /// Counts a sample the filter refused before it reached the maths.
+    pub fn refuse(&mut self, reason: Reject) -> Reject {
+        self.counts.rejected_one(reason);
+        reason
+    }
+
+    /// Checks, gates and fuses one sample; see the module documentation.
+    pub fn fuse(
+        &mut self,
+        x: &mut NominalState,
+        p: &mut Covariance,
+        gyro: &Vec3,
+        rates: &WheelRates,
+        grip: &GripParams,
+    ) -> Result<WheelInnovation, Reject> {
+        let outcome = self.fuse_inner(x, p, gyro, rates, grip);
+        match outcome {
+            Ok(inn) if inn.gated => self.counts.rejected_one(Reject::Gated),
+            Ok(_) => self.counts.fused_one(),
+            Err(r) => self.counts.rejected_one(r),
+        }
+        outcome
+    }
+
+    fn fuse_inner(
+        &mut self,
+        x: &mut NominalState,
+        p: &mut Covariance,
+        gyro: &Vec3,
+        rates: &WheelRates,
+        grip: &GripParams,
+    ) -> Result<WheelInnovation, Reject> {
+        if !(rates.left.is_finite() && rates.right.is_finite()) {
+            return Err(Reject::NonFinite);
+        }
+        // Gaps are not fatal for rates (they are an average over the
+        // interval), but the clock re-anchors and the sample is counted.
+        self.clock.accept(rates.t)?;
+        self.stopped =
+            libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
+        let m = wheel_measurement(x, gyro, rates, grip);
+        let var_fwd = m.component_variance(p, FORWARD).ok_or(Reject::Degenerate)?;
+        let var_diff = m
+            .component_variance(p, DIFFERENTIAL)
+            .ok_or(Reject::Degenerate)?;
+        let forward = m.residual.get(FORWARD).copied().ok_or(Reject::Degenerate)?;
+        let diff = m
+            .residual
+            .get(DIFFERENTIAL)
+            .copied()
+            .ok_or(Reject::Degenerate)?;
+        if !(var_fwd > 0.0 && var_diff > 0.0) {
+            return Err(Reject::Degenerate);
+        }
+        let gate = grip.forward_gate();
+        let gated = forward * forward / var_fwd > gate || diff * diff / var_diff > gate;
+        if gated {
+            let constraints = m.select([LATERAL, VERTICAL]).ok_or(Reject::Degenerate)?;
+            gated_update(x, p, &constraints, None)?;
+        } else {
+            gated_update(x, p, &m, None)?;
+        }
+        let inn = WheelInnovation {
+            forward,
+            forward_var: var_fwd,
+            gated,
+        };
+        self.last = Some(inn);
+        Ok(inn)
+    }
+}

@@ -1,0 +1,86 @@
+//! When the robot is still, and so when to make a zero-velocity update.
+//!
+//! Still means, for `still_samples` IMU samples in a row: the latest wheel
+//! sample reports both wheels stopped, the bias-corrected gyro norm is small
+//! and the specific-force norm is close to gravity. While still, the clone
+//! is frozen and a zero-velocity update is due every `every` IMU samples.
+
+use vslam_core::SampleCounts;
+
+use crate::config::ZuptConfig;
+use crate::state::Vec3;
+
+/// The still detector and the zero-velocity update's counters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StillDetector {
+    run: u16,
+    since_update: u16,
+    counts: SampleCounts,
+}
+
+impl Default for StillDetector {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl StillDetector {
+    /// Not still, nothing counted.
+    pub const fn new() -> Self {
+        StillDetector {
+            run: 0,
+            since_update: 0,
+            counts: SampleCounts::new(),
+        }
+    }
+
+    /// Feeds one IMU step; returns whether the robot is still now.
+    pub fn step(
+        &mut self,
+        config: &ZuptConfig,
+        gyro: &Vec3,
+        accel: &Vec3,
+        gravity: f32,
+        wheels_stopped: bool,
+    ) -> bool {
+        let quiet = wheels_stopped
+            && gyro.norm() < config.max_gyro
+            && libm::fabsf(accel.norm() - gravity) < config.max_accel_deviation;
+        if quiet {
+            self.run = self.run.saturating_add(1);
+        } else {
+            self.run = 0;
+            self.since_update = 0;
+        }
+        self.is_still(config)
+    }
+
+    /// Whether the robot is still.
+    pub fn is_still(&self, config: &ZuptConfig) -> bool {
+        self.run >= config.still_samples
+    }
+
+    /// Whether a zero-velocity update is due at this still step.
+    pub fn update_due(&mut self, config: &ZuptConfig) -> bool {
+        if !self.is_still(config) {
+            return false;
+        }
+        self.since_update = self.since_update.saturating_add(1);
+        if self.since_update >= config.every {
+            self.since_update = 0;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Zero-velocity updates fused and rejected.
+    pub fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// Counts the outcome of one zero-velocity update.
+    pub fn record(&mut self, outcome: Result<(), vslam_core::Reject>) {
+        self.counts.record(outcome);
+    }
+}

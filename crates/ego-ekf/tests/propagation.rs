@@ -1,0 +1,126 @@
+//! Propagation: the block-structured covariance step equals the dense
+//! reference `F P F^T + Q`, and `F` equals finite differences of the
+//! nominal propagation.
+
+use ego_ekf::config::{ImuNoise, RobotPrior};
+use ego_ekf::propagate::{
+    Transition, process_noise, propagate_covariance, propagate_covariance_dense, propagate_nominal,
+};
+use ego_ekf::state::{Covariance, DIM, ErrorState, NominalState, Quat, Vec3};
+use nalgebra::SMatrix;
+
+fn state() -> NominalState {
+    let q_wb = Quat::from_euler_angles(0.05, -0.03, 1.2);
+    NominalState {
+        p_wb: Vec3::new(1.0, -2.0, 0.06),
+        v_wb: Vec3::new(0.25, 0.12, -0.02),
+        q_wb,
+        accel_bias: Vec3::new(0.01, -0.02, 0.03),
+        gyro_bias: Vec3::new(0.001, 0.002, -0.003),
+        gravity: Vec3::new(0.01, -0.02, -9.81),
+        clone_p_wb: Vec3::new(1.0, -2.0, 0.06),
+        clone_q_wb: q_wb,
+        p_bl: Vec3::new(0.0, 0.115, -0.06),
+        p_br: Vec3::new(0.0, -0.115, -0.06),
+        q_rb: Quat::identity(),
+        radius_left: 0.035,
+        radius_right: 0.035,
+    }
+}
+
+/// Error state taking `a` to `b` (`b = a [+] dx`), IMU part.
+fn boxminus(b: &NominalState, a: &NominalState) -> ErrorState {
+    let mut dx = ErrorState::zeros();
+    dx.fixed_rows_mut::<3>(0).copy_from(&(b.p_wb - a.p_wb));
+    dx.fixed_rows_mut::<3>(3).copy_from(&(b.v_wb - a.v_wb));
+    dx.fixed_rows_mut::<3>(6)
+        .copy_from(&(a.q_wb.inverse() * b.q_wb).scaled_axis());
+    dx.fixed_rows_mut::<3>(9)
+        .copy_from(&(b.accel_bias - a.accel_bias));
+    dx.fixed_rows_mut::<3>(12)
+        .copy_from(&(b.gyro_bias - a.gyro_bias));
+    dx.fixed_rows_mut::<3>(15)
+        .copy_from(&(b.gravity - a.gravity));
+    dx
+}
+
+/// A random symmetric positive-definite matrix from a seed.
+fn random_spd(seed: u64) -> Covariance {
+    let mut s = seed;
+    let mut next = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
+    };
+    let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| next());
+    a * a.transpose() * 0.1 + Covariance::identity() * 0.01
+}
+
+#[test]
+fn block_propagation_equals_dense_reference() {
+    let x = state();
+    let accel = Vec3::new(0.3, -0.4, 9.9);
+    let gyro = Vec3::new(0.1, -0.05, 1.3);
+    let r = x.q_wb.to_rotation_matrix().into_inner();
+    for seed in 0..20 {
+        let dt = 0.004 * (1.0 + seed as f32 * 0.1);
+        let f = Transition::new(&r, &accel, &gyro, dt);
+        let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), dt);
+        let p0 = random_spd(seed);
+        let mut fast = p0;
+        let mut dense = p0;
+        propagate_covariance(&mut fast, &f, &q);
+        propagate_covariance_dense(&mut dense, &f, &q);
+        let err = (fast - dense).abs().max();
+        assert!(
+            err < 1e-5 * dense.abs().max(),
+            "seed {seed}: max error {err}"
+        );
+        // The rest-to-rest block only gained Q.
+        let rest = fast.fixed_view::<17, 17>(18, 18) - p0.fixed_view::<17, 17>(18, 18);
+        let q_rest = Covariance::from_diagonal(&q)
+            .fixed_view::<17, 17>(18, 18)
+            .into_owned();
+        assert!((rest - q_rest).abs().max() < 1e-6);
+    }
+}
+
+#[test]
+fn transition_matches_finite_differences() {
+    let x0 = state();
+    let accel_m = Vec3::new(0.3, -0.4, 9.9);
+    let gyro_m = Vec3::new(0.1, -0.05, 1.3);
+    let dt = 0.004;
+    let r = x0.q_wb.to_rotation_matrix().into_inner();
+    let f = Transition::new(&r, &(accel_m - x0.accel_bias), &(gyro_m - x0.gyro_bias), dt).dense();
+    let step = |x: &NominalState| {
+        let mut y = *x;
+        propagate_nominal(
+            &mut y,
+            &(accel_m - x.accel_bias),
+            &(gyro_m - x.gyro_bias),
+            dt,
+        );
+        y
+    };
+    let y0 = step(&x0);
+    let eps = 1e-2f32;
+    for j in 0..18 {
+        let mut dx = ErrorState::zeros();
+        dx[j] = eps;
+        let mut xp = x0;
+        xp.inject(&dx);
+        let mut xm = x0;
+        xm.inject(&(-dx));
+        let d = (boxminus(&step(&xp), &y0) - boxminus(&step(&xm), &y0)) / (2.0 * eps);
+        for i in 0..18 {
+            assert!(
+                (d[i] - f[(i, j)]).abs() < 1e-3,
+                "F[{i},{j}]: numeric {} analytic {}",
+                d[i],
+                f[(i, j)]
+            );
+        }
+    }
+}
