@@ -67,7 +67,12 @@ fn bench(c: &mut Criterion) {
         c.bench_function(name, |bench| {
             bench.iter(|| {
                 tracker
-                    .track(black_box(&pa), black_box(&pb), black_box(&points), &mut results)
+                    .track(
+                        black_box(&pa),
+                        black_box(&pb),
+                        black_box(&points),
+                        &mut results,
+                    )
                     .unwrap()
             })
         });
@@ -75,12 +80,18 @@ fn bench(c: &mut Criterion) {
 
     let mut storage = Box::new(Storage::new());
     c.bench_function("pyramid/build_320x240_3_levels", |bench| {
-        bench.iter(|| Pyramid::build(black_box(&va), 3, &mut storage).map(|p| p.levels()).unwrap())
+        bench.iter(|| {
+            Pyramid::build(black_box(&va), 3, &mut storage)
+                .map(|p| p.levels())
+                .unwrap()
+        })
     });
 
     let mut out = [Corner::default(); 100];
     c.bench_function("corners/shi_tomasi_320x240_100", |bench| {
-        bench.iter(|| detect_corners(black_box(&va), &corner_config, &mut scratch, &mut out).unwrap())
+        bench.iter(|| {
+            detect_corners(black_box(&va), &corner_config, &mut scratch, &mut out).unwrap()
+        })
     });
 }
 

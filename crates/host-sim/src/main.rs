@@ -1,18 +1,5 @@
-//! `host-sim`: the host program of traction.
-// The readers and writers below are wired into the commands as those land;
-// until then parts of them are exercised only by their tests.
-#![allow(dead_code)]
-
-mod asl;
-mod chips;
-mod error;
-mod matches;
-mod metrics;
-mod pngio;
-mod sim;
-mod svg;
-mod tum;
-
+//! `host-sim`: the host program of traction. The commands are added in
+//! `src/cli/` as they land.
 fn main() {
-    println!("host-sim");
+    println!("host-sim {}", env!("CARGO_PKG_VERSION"));
 }
