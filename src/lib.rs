@@ -11,4 +11,6 @@ pub use flow_sensor;
 pub use vslam_core;
 pub use wheel_odom;
 
+pub mod estimator;
+pub mod frontend;
 pub mod reorder;

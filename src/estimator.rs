@@ -1,0 +1,407 @@
+//! `Estimator`: wires every part of traction together, for firmware and host alike.
+//!
+//! Samples of every stream go in as they arrive ([`Estimator::offer`]); the
+//! estimator puts them into one time order ([`crate::reorder`]) and, when
+//! polled, processes them one by one:
+//!
+//! - IMU: validated once (non-finite, saturated), the EKF propagates, the
+//!   scale pipeline keeps it for its slip checks, and the vertical
+//!   specific-force deviation goes to the jolt monitor with the context of
+//!   the current floor;
+//! - wheel counts: `wheel-odom` turns them into a body displacement and wheel
+//!   rates; the EKF fuses the rates with the floor's grip (forward gated,
+//!   lateral and vertical always), the scale pipeline accumulates `Tw`, and
+//!   the forward innovation teaches the surface model its floors;
+//! - flow reports: the EKF fuses the velocity with quality as noise, the
+//!   scale pipeline accumulates `To`.
+//!
+//! Camera frames ([`Estimator::process_camera`]) and segmentation maps
+//! ([`Estimator::process_segmentation`]) are borrowed views, processed at
+//! once after every buffered sample up to their time. Every sample ends in
+//! exactly one count of its stream (fused, or rejected with a reason), so a
+//! report's counts add up to what went in.
+
+use crate::frontend::FrontEnd;
+use crate::reorder::{Event, Pushed, Reorder};
+use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
+use ego_ekf::surface::{MapError, SurfaceModel};
+use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
+use heapless::Deque;
+use vslam_core::image::{ImageView, LabelView};
+use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
+use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, WheelTicks};
+use vslam_core::{Reject, SampleCounts, Timestamp};
+use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
+
+/// Samples the ordering buffer holds.
+pub const REORDER_CAPACITY: usize = 64;
+/// Recent poses the scale pipeline keeps.
+pub const TRAJECTORY_CAPACITY: usize = 32;
+/// Jolt events the monitor keeps.
+pub const JOLT_LOG: usize = 16;
+
+/// Everything the estimator is built from.
+#[derive(Clone, Debug)]
+pub struct EstimatorConfig {
+    /// The EKF.
+    pub filter: FilterConfig,
+    /// Wheel odometry.
+    pub odometry: DiffDriveParams,
+    /// The metric-scale pipeline.
+    pub scale: PipelineConfig,
+    /// The surface model; `None` keeps the filter's fixed grip.
+    pub surface: Option<ego_ekf::surface::SurfaceConfig>,
+    /// Jolt detection.
+    pub jolts: JoltConfig,
+    /// How long the ordering buffer waits for late samples, nanoseconds.
+    pub reorder_window_ns: u64,
+}
+
+/// Why the estimator could not be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EstimatorError {
+    /// The filter settings were refused.
+    Filter(ConfigError),
+    /// The scale pipeline settings were refused.
+    Scale(PipelineConfigError),
+}
+
+impl core::fmt::Display for EstimatorError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            EstimatorError::Filter(e) => write!(f, "filter settings: {e:?}"),
+            EstimatorError::Scale(e) => write!(f, "scale settings: {e:?}"),
+        }
+    }
+}
+
+impl core::error::Error for EstimatorError {}
+
+/// What processing one buffered sample did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Processed {
+    /// An IMU sample.
+    Imu {
+        /// Its time.
+        t: Timestamp,
+        /// The filter step, or why the sample was rejected.
+        outcome: Result<ImuStep, Reject>,
+        /// A jolt this sample completed.
+        jolt: Option<JoltEvent>,
+    },
+    /// Wheel counts.
+    Wheel {
+        /// Their time.
+        t: Timestamp,
+        /// The forward innovation (with `gated` set when the gate refused the
+        /// forward part), or why the sample was rejected.
+        outcome: Result<WheelInnovation, Reject>,
+    },
+    /// A flow report.
+    Flow {
+        /// Its time.
+        t: Timestamp,
+        /// Fused, or why not.
+        outcome: Result<(), Reject>,
+    },
+}
+
+/// Per-stream tallies: every sample offered ends in exactly one count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StreamCounts {
+    /// IMU samples.
+    pub imu: SampleCounts,
+    /// Wheel count samples.
+    pub wheel: SampleCounts,
+    /// Flow reports.
+    pub flow: SampleCounts,
+    /// Segmentation maps.
+    pub segmentation: SampleCounts,
+}
+
+/// The whole estimator.
+pub struct Estimator<'b> {
+    ekf: EgoEkf,
+    odometry: DiffDriveOdometry,
+    scale: ScalePipeline<TRAJECTORY_CAPACITY>,
+    surface: Option<SurfaceModel>,
+    jolts: JoltMonitor<JOLT_LOG>,
+    frontend: Option<FrontEnd<'b>>,
+    reorder: Reorder<REORDER_CAPACITY>,
+    pending: Deque<Processed, 4>,
+    counts: StreamCounts,
+    ended: bool,
+}
+
+impl<'b> Estimator<'b> {
+    /// Builds the estimator; `frontend` is the camera path, if a camera is fitted.
+    pub fn new(
+        config: &EstimatorConfig,
+        frontend: Option<FrontEnd<'b>>,
+    ) -> Result<Self, EstimatorError> {
+        Ok(Estimator {
+            ekf: EgoEkf::new(config.filter).map_err(EstimatorError::Filter)?,
+            odometry: DiffDriveOdometry::new(config.odometry),
+            scale: ScalePipeline::new(config.scale).map_err(EstimatorError::Scale)?,
+            surface: config.surface.map(SurfaceModel::new),
+            jolts: JoltMonitor::new(config.jolts),
+            frontend,
+            reorder: Reorder::new(config.reorder_window_ns),
+            pending: Deque::new(),
+            counts: StreamCounts::default(),
+            ended: false,
+        })
+    }
+
+    /// Offers an IMU sample.
+    pub fn offer_imu(&mut self, s: RawImuSample) {
+        self.offer(Event::Imu(s));
+    }
+
+    /// Offers cumulative wheel counts.
+    pub fn offer_wheel(&mut self, s: WheelTicks) {
+        self.offer(Event::Wheel(s));
+    }
+
+    /// Offers a flow report.
+    pub fn offer_flow(&mut self, s: FlowSample) {
+        self.offer(Event::Flow(s));
+    }
+
+    /// Offers a sample of any buffered stream. A sample that comes too late
+    /// for the ordering window is rejected and counted as out of order.
+    pub fn offer(&mut self, event: Event) {
+        match self.reorder.push(event) {
+            Ok(Pushed::Held) => {}
+            Ok(Pushed::HeldReleasing(oldest)) => {
+                let p = self.process(oldest);
+                self.queue(p);
+            }
+            Err((reason, late)) => {
+                let p = self.reject(late, reason);
+                self.queue(p);
+            }
+        }
+    }
+
+    /// Processes the next sample whose ordering window has passed (all of
+    /// them after [`Estimator::finish`]).
+    pub fn poll(&mut self) -> Option<Processed> {
+        if let Some(p) = self.pending.pop_front() {
+            return Some(p);
+        }
+        let next = if self.ended {
+            self.reorder.pop_any()
+        } else {
+            self.reorder.pop_ready()
+        };
+        next.map(|e| self.process(e))
+    }
+
+    /// Processes the next buffered sample at or before `t`, waited or not.
+    pub fn poll_until(&mut self, t: Timestamp) -> Option<Processed> {
+        if let Some(p) = self.pending.pop_front() {
+            return Some(p);
+        }
+        self.reorder.pop_until(t).map(|e| self.process(e))
+    }
+
+    /// No more samples will come: [`Estimator::poll`] drains the buffer.
+    pub fn finish(&mut self) {
+        self.ended = true;
+    }
+
+    /// Processes an upward-camera frame taken at `t` (after every buffered
+    /// sample up to `t`). Gives the scale decision of the frame pair, `None`
+    /// for a first frame, or the reason the frame was not used.
+    pub fn process_camera(
+        &mut self,
+        t: Timestamp,
+        image: &ImageView<'_>,
+    ) -> Result<Option<FrameDecision>, Reject> {
+        while self.poll_until(t).is_some() {}
+        let Some(frontend) = self.frontend.as_mut() else {
+            return Err(Reject::NotReady);
+        };
+        match frontend.process(t, image)? {
+            None => Ok(None),
+            Some(motion) => self.scale.push_camera(&motion).map(Some),
+        }
+    }
+
+    /// Processes a segmentation map of the forward camera taken at `t`.
+    pub fn process_segmentation(
+        &mut self,
+        t: Timestamp,
+        labels: &LabelView<'_>,
+    ) -> Result<(), Reject> {
+        while self.poll_until(t).is_some() {}
+        let speed = self.forward_speed();
+        let outcome = match self.surface.as_mut() {
+            None => Err(Reject::NotReady),
+            Some(s) => match s.on_segmentation(t, labels, speed) {
+                Ok(_) => Ok(()),
+                Err(MapError::NoSurface(_)) => Err(Reject::LowQuality),
+                Err(MapError::Rejected(r)) => Err(r),
+            },
+        };
+        self.counts.segmentation.record(outcome);
+        outcome
+    }
+
+    fn queue(&mut self, p: Processed) {
+        if let Err(p) = self.pending.push_back(p) {
+            // The caller did not poll; the oldest record goes, its sample stays counted.
+            let _ = self.pending.pop_front();
+            let _ = self.pending.push_back(p);
+        }
+    }
+
+    fn forward_speed(&self) -> f32 {
+        if self.ekf.is_initialised() {
+            self.ekf.robot_velocity().x
+        } else {
+            0.0
+        }
+    }
+
+    fn reject(&mut self, event: Event, reason: Reject) -> Processed {
+        match event {
+            Event::Imu(s) => {
+                self.counts.imu.rejected_one(reason);
+                Processed::Imu {
+                    t: s.t,
+                    outcome: Err(reason),
+                    jolt: None,
+                }
+            }
+            Event::Wheel(s) => {
+                self.counts.wheel.rejected_one(reason);
+                Processed::Wheel {
+                    t: s.t,
+                    outcome: Err(reason),
+                }
+            }
+            Event::Flow(s) => {
+                self.counts.flow.rejected_one(reason);
+                Processed::Flow {
+                    t: s.t,
+                    outcome: Err(reason),
+                }
+            }
+        }
+    }
+
+    fn process(&mut self, event: Event) -> Processed {
+        match event {
+            Event::Imu(raw) => self.process_imu(&raw),
+            Event::Wheel(ticks) => self.process_wheel(&ticks),
+            Event::Flow(s) => self.process_flow(&s),
+        }
+    }
+
+    fn process_imu(&mut self, raw: &RawImuSample) -> Processed {
+        let cfg = self.ekf.config();
+        let outcome = ImuSample::with_range(raw, cfg.imu_gyro_max, cfg.imu_accel_max)
+            .and_then(|s| self.ekf.propagate(&s).map(|step| (s, step)));
+        let mut jolt = None;
+        if let Ok((sample, step)) = &outcome {
+            let _ = self.scale.push_imu(sample);
+            let ctx = match &self.surface {
+                Some(s) => s.jolt_context(step.t, self.forward_speed()),
+                None => JoltContext::from_params(&self.ekf.grip(), None),
+            };
+            jolt = self
+                .jolts
+                .push(step.t, step.vertical_deviation, &ctx)
+                .ok()
+                .flatten();
+        }
+        let outcome = outcome.map(|(_, step)| step);
+        self.counts.imu.record(outcome.map(|_| ()));
+        Processed::Imu {
+            t: raw.t,
+            outcome,
+            jolt,
+        }
+    }
+
+    fn process_wheel(&mut self, ticks: &WheelTicks) -> Processed {
+        let outcome = match self.odometry.update(*ticks) {
+            Err(r) => Err(r),
+            // The first sample only anchors the counts.
+            Ok(None) => Err(Reject::NotReady),
+            Ok(Some(step)) => {
+                let _ = self.scale.push_wheel(&step.delta);
+                if let Some(s) = &self.surface {
+                    self.ekf.set_grip(s.grip_params(ticks.t));
+                }
+                let fused = self.ekf.fuse_wheel(&step.rates);
+                if let (Ok(inn), Some(s)) = (&fused, self.surface.as_mut()) {
+                    let _ = s.on_wheel_innovation(ticks.t, inn.forward, inn.forward_var, inn.gated);
+                }
+                fused
+            }
+        };
+        // A gated forward part is a gated sample, even though lateral and vertical were fused.
+        self.counts.wheel.record(match &outcome {
+            Ok(inn) if inn.gated => Err(Reject::Gated),
+            Ok(_) => Ok(()),
+            Err(r) => Err(*r),
+        });
+        Processed::Wheel {
+            t: ticks.t,
+            outcome,
+        }
+    }
+
+    fn process_flow(&mut self, s: &FlowSample) -> Processed {
+        let _ = self.scale.push_flow(s);
+        let outcome = self.ekf.fuse_flow(s).map(|_| ());
+        self.counts.flow.record(outcome);
+        Processed::Flow { t: s.t, outcome }
+    }
+
+    /// The filter.
+    pub fn ekf(&self) -> &EgoEkf {
+        &self.ekf
+    }
+
+    /// The scale pipeline (camera trajectory, decisions, adverse memory).
+    pub fn scale(&self) -> &ScalePipeline<TRAJECTORY_CAPACITY> {
+        &self.scale
+    }
+
+    /// The surface model, if configured.
+    pub fn surface(&self) -> Option<&SurfaceModel> {
+        self.surface.as_ref()
+    }
+
+    /// The jolt monitor (event log and counters).
+    pub fn jolts(&self) -> &JoltMonitor<JOLT_LOG> {
+        &self.jolts
+    }
+
+    /// The camera path, if fitted.
+    pub fn frontend(&self) -> Option<&FrontEnd<'b>> {
+        self.frontend.as_ref()
+    }
+
+    /// Wheel odometry (its own rejection counts included).
+    pub fn odometry(&self) -> &DiffDriveOdometry {
+        &self.odometry
+    }
+
+    /// Per-stream tallies of every sample offered.
+    pub fn counts(&self) -> &StreamCounts {
+        &self.counts
+    }
+
+    /// Camera frames used and refused.
+    pub fn camera_counts(&self) -> SampleCounts {
+        self.frontend
+            .as_ref()
+            .map(|f| *f.counts())
+            .unwrap_or_default()
+    }
+}

@@ -1,0 +1,354 @@
+//! The camera path of the estimator: from two consecutive frames of the
+//! upward camera to the camera motion the scale pipeline needs.
+//!
+//! Per frame: pyramids of the previous and the current frame, pyramidal
+//! Lucas-Kanade from the corners found on the previous frame, a RANSAC
+//! homography on the tracks, its decomposition with the camera intrinsics,
+//! and the selection of the candidate whose plane normal matches the ceiling
+//! (the body's up axis seen from the camera). Corners are found afresh on
+//! every frame, so tracks never drift over more than one frame.
+//!
+//! Memory is the caller's: [`FrontEndBuffers`] borrows one frame copy, two
+//! pyramid storages and the corner detector's scratch, sized by
+//! [`FrontEndBuffers::sizes`], so firmware can place them in statics and a
+//! host in heap vectors. Nothing here allocates.
+
+use heapless::Vec as HVec;
+use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
+use vslam_core::decompose::{NormalPrior, PinholeIntrinsics, SelectParams, decompose};
+use vslam_core::geometry::{Extrinsics, Vec2, Vec3};
+use vslam_core::homography::{HomographyRansac, RansacParams};
+use vslam_core::image::ImageView;
+use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::pyramid::{Pyramid, storage_bytes};
+use vslam_core::scale::CameraMotion;
+use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
+
+/// Most features tracked between two frames.
+pub const MAX_FEATURES: usize = 200;
+
+/// Settings of the camera path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrontEndConfig {
+    /// Frame width, pixels.
+    pub width: usize,
+    /// Frame height, pixels.
+    pub height: usize,
+    /// Pinhole intrinsics.
+    pub intrinsics: PinholeIntrinsics,
+    /// Camera mounting `T_BC`.
+    pub mount: Extrinsics,
+    /// Pyramid levels.
+    pub levels: usize,
+    /// Tracker settings.
+    pub lk: LkConfig,
+    /// Corner detector settings.
+    pub corners: CornerConfig,
+    /// Robust homography settings.
+    pub ransac: RansacParams,
+    /// Largest angle between a candidate's plane normal and the ceiling, radians.
+    pub prior_max_angle_rad: f32,
+    /// Fewest tracked features for a frame pair to be used.
+    pub min_tracks: usize,
+    /// Longest accepted gap between frames, nanoseconds.
+    pub max_gap_ns: u64,
+}
+
+impl FrontEndConfig {
+    /// Defaults for a `width x height` upward camera.
+    pub fn new(
+        width: usize,
+        height: usize,
+        intrinsics: PinholeIntrinsics,
+        mount: Extrinsics,
+    ) -> Self {
+        FrontEndConfig {
+            width,
+            height,
+            intrinsics,
+            mount,
+            levels: 3,
+            lk: LkConfig::default(),
+            corners: CornerConfig::default(),
+            ransac: RansacParams::default(),
+            prior_max_angle_rad: 0.35,
+            min_tracks: 12,
+            max_gap_ns: 1_000_000_000,
+        }
+    }
+}
+
+/// The memory the camera path works in, borrowed from the caller.
+pub struct FrontEndBuffers<'b> {
+    /// A copy of the previous frame, `width * height` bytes.
+    pub previous_frame: &'b mut [u8],
+    /// Pyramid storage of the previous frame.
+    pub previous_pyramid: &'b mut [u8],
+    /// Pyramid storage of the current frame.
+    pub current_pyramid: &'b mut [u8],
+    /// Corner detector scratch.
+    pub corner_scratch: &'b mut [f32],
+}
+
+impl FrontEndBuffers<'_> {
+    /// Lengths of `[previous_frame, previous_pyramid, current_pyramid, corner_scratch]`.
+    pub const fn sizes(
+        width: usize,
+        height: usize,
+        levels: usize,
+        block_size: usize,
+    ) -> [usize; 4] {
+        let pyr = storage_bytes(width, height, levels);
+        [
+            width.saturating_mul(height),
+            pyr,
+            pyr,
+            scratch_len(width, height, block_size),
+        ]
+    }
+}
+
+/// Why the front end was built wrong.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrontEndError {
+    /// A buffer is shorter than [`FrontEndBuffers::sizes`] asks.
+    BufferTooSmall,
+    /// Tracker, corner or RANSAC settings were refused.
+    BadConfig,
+}
+
+impl core::fmt::Display for FrontEndError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            FrontEndError::BufferTooSmall => "a front-end buffer is smaller than required",
+            FrontEndError::BadConfig => "front-end settings were refused",
+        })
+    }
+}
+
+impl core::error::Error for FrontEndError {}
+
+/// What one frame pair gave, for reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Corners tracked from the previous frame.
+    pub tracked: u16,
+    /// RANSAC inliers among them.
+    pub inliers: u16,
+    /// RMS transfer error of the inliers, pixels.
+    pub rms_px: f32,
+    /// The decomposition was a pure rotation.
+    pub pure_rotation: bool,
+}
+
+/// The camera path.
+pub struct FrontEnd<'b> {
+    config: FrontEndConfig,
+    buffers: FrontEndBuffers<'b>,
+    tracker: Tracker,
+    ransac: HomographyRansac<MAX_FEATURES>,
+    prior: NormalPrior,
+    clock: SampleClock,
+    points: HVec<Vec2, MAX_FEATURES>,
+    counts: SampleCounts,
+    last: Option<FrameStats>,
+}
+
+impl<'b> FrontEnd<'b> {
+    /// Checks the buffers and the settings.
+    pub fn new(
+        config: FrontEndConfig,
+        buffers: FrontEndBuffers<'b>,
+    ) -> Result<Self, FrontEndError> {
+        let need = FrontEndBuffers::sizes(
+            config.width,
+            config.height,
+            config.levels,
+            config.corners.block_size,
+        );
+        let have = [
+            buffers.previous_frame.len(),
+            buffers.previous_pyramid.len(),
+            buffers.current_pyramid.len(),
+            buffers.corner_scratch.len(),
+        ];
+        if have.iter().zip(need.iter()).any(|(h, n)| h < n) {
+            return Err(FrontEndError::BufferTooSmall);
+        }
+        let tracker = Tracker::new(config.lk).map_err(|_| FrontEndError::BadConfig)?;
+        let ransac = HomographyRansac::new(config.ransac).map_err(|_| FrontEndError::BadConfig)?;
+        // The ceiling is straight above: the body's +z, seen from the camera.
+        let prior = NormalPrior::from_body(&config.mount, &Vec3::z(), config.prior_max_angle_rad)
+            .map_err(|_| FrontEndError::BadConfig)?;
+        Ok(FrontEnd {
+            config,
+            buffers,
+            tracker,
+            ransac,
+            prior,
+            clock: SampleClock::new(config.max_gap_ns),
+            points: HVec::new(),
+            counts: SampleCounts::new(),
+            last: None,
+        })
+    }
+
+    /// Frames used and refused, by reason.
+    pub fn counts(&self) -> &SampleCounts {
+        &self.counts
+    }
+
+    /// What the last used frame pair gave.
+    pub fn last_stats(&self) -> Option<FrameStats> {
+        self.last
+    }
+
+    /// Processes one frame taken at `t`. The first frame (and the first after
+    /// a gap) gives `Ok(None)`; later frames give the camera motion since the
+    /// previous frame, or a counted rejection.
+    pub fn process(
+        &mut self,
+        t: Timestamp,
+        image: &ImageView<'_>,
+    ) -> Result<Option<CameraMotion>, Reject> {
+        let outcome = self.process_inner(t, image);
+        match outcome {
+            Ok(Some(_)) => self.counts.fused_one(),
+            Ok(None) => {}
+            Err(r) => self.counts.rejected_one(r),
+        }
+        outcome
+    }
+
+    fn process_inner(
+        &mut self,
+        t: Timestamp,
+        image: &ImageView<'_>,
+    ) -> Result<Option<CameraMotion>, Reject> {
+        if image.width() != self.config.width || image.height() != self.config.height {
+            return Err(Reject::OutOfRange);
+        }
+        let previous_t = self.clock.last();
+        let first = match self.clock.accept(t) {
+            Ok(dt) => dt.is_none(),
+            Err(Reject::Gap) => {
+                // Too long since the last frame: start over from this one.
+                self.remember(image);
+                return Err(Reject::Gap);
+            }
+            Err(r) => return Err(r),
+        };
+        let motion = match (first, previous_t) {
+            (false, Some(t0)) => self.motion_since(t0, t, image),
+            _ => Ok(None),
+        };
+        self.remember(image);
+        motion
+    }
+
+    fn motion_since(
+        &mut self,
+        t0: Timestamp,
+        t1: Timestamp,
+        image: &ImageView<'_>,
+    ) -> Result<Option<CameraMotion>, Reject> {
+        let (w, h, levels) = (self.config.width, self.config.height, self.config.levels);
+        if self.points.len() < self.config.min_tracks {
+            return Err(Reject::LowQuality);
+        }
+        let mut results = [TrackResult::EMPTY; MAX_FEATURES];
+        let results = results
+            .get_mut(..self.points.len())
+            .ok_or(Reject::Degenerate)?;
+        {
+            let prev_view = ImageView::packed(self.buffers.previous_frame, w, h)
+                .map_err(|_| Reject::OutOfRange)?;
+            let prev = Pyramid::build_in(&prev_view, levels, self.buffers.previous_pyramid)
+                .map_err(|_| Reject::OutOfRange)?;
+            let next = Pyramid::build_in(image, levels, self.buffers.current_pyramid)
+                .map_err(|_| Reject::OutOfRange)?;
+            self.tracker
+                .track(&prev, &next, &self.points, results)
+                .map_err(|_| Reject::Degenerate)?;
+        }
+        let mut p1: HVec<Vec2, MAX_FEATURES> = HVec::new();
+        let mut p2: HVec<Vec2, MAX_FEATURES> = HVec::new();
+        for (p, r) in self.points.iter().zip(results.iter()) {
+            if r.is_tracked() {
+                // Capacities are equal to the number of points: these cannot fail.
+                let _ = p1.push(*p);
+                let _ = p2.push(r.position);
+            }
+        }
+        if p1.len() < self.config.min_tracks {
+            return Err(Reject::LowQuality);
+        }
+        let mut mask = [false; MAX_FEATURES];
+        let mask = mask.get_mut(..p1.len()).ok_or(Reject::Degenerate)?;
+        let report = self
+            .ransac
+            .estimate(&p1, &p2, mask)
+            .map_err(|_| Reject::Degenerate)?;
+        let dec = decompose(&report.homography, &self.config.intrinsics)
+            .map_err(|_| Reject::Degenerate)?;
+        let stats = FrameStats {
+            tracked: p1.len() as u16,
+            inliers: report.inlier_count as u16,
+            rms_px: report.rms_error_px,
+            pure_rotation: dec.is_pure_rotation(),
+        };
+        let chosen = if dec.is_pure_rotation() {
+            dec.candidates().first().copied()
+        } else {
+            let params = SelectParams {
+                prior: Some(self.prior),
+                ..SelectParams::default()
+            };
+            let sel = dec
+                .select(&p1, mask, &params)
+                .map_err(|_| Reject::Degenerate)?;
+            dec.selected(&sel).copied()
+        };
+        let chosen = chosen.ok_or(Reject::Degenerate)?;
+        self.last = Some(stats);
+        CameraMotion::from_point_transfer(
+            t0,
+            t1,
+            chosen.rotation,
+            chosen.translation_over_distance,
+            stats.inliers,
+            report.inlier_ratio(),
+            report.rms_error_px,
+        )
+        .map(Some)
+        .map_err(|_| Reject::Degenerate)
+    }
+
+    /// Keeps `image` as the previous frame and finds the corners to track from it.
+    fn remember(&mut self, image: &ImageView<'_>) {
+        let w = self.config.width;
+        for (y, dst) in self
+            .buffers
+            .previous_frame
+            .chunks_exact_mut(w)
+            .take(self.config.height)
+            .enumerate()
+        {
+            if let Some(src) = image.row(y) {
+                dst.copy_from_slice(src);
+            }
+        }
+        self.points.clear();
+        let mut corners = [Corner::default(); MAX_FEATURES];
+        if let Ok(n) = detect_corners(
+            image,
+            &self.config.corners,
+            self.buffers.corner_scratch,
+            &mut corners,
+        ) {
+            for c in corners.iter().take(n) {
+                let _ = self.points.push(c.position());
+            }
+        }
+    }
+}
