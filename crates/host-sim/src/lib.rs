@@ -14,6 +14,7 @@ pub mod error;
 pub mod matches;
 pub mod metrics;
 pub mod pngio;
+pub mod replay;
 pub mod sim;
 pub mod svg;
 pub mod tum;
