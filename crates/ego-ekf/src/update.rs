@@ -28,6 +28,13 @@ pub struct Measurement<const M: usize> {
 }
 
 impl<const M: usize> Measurement<M> {
+    /// Whether residual, Jacobian and noise are all finite.
+    pub fn is_finite(&self) -> bool {
+        self.residual.iter().all(|v| v.is_finite())
+            && self.h.iter().all(|v| v.is_finite())
+            && self.noise.iter().all(|v| v.is_finite())
+    }
+
     /// The variance of the `row`-th residual component under `p`:
     /// `H_i P H_i^T + R_ii` (for per-component gating). `None` for a row
     /// outside the measurement.
@@ -81,13 +88,25 @@ pub fn gated_update<const M: usize>(
     m: &Measurement<M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
-    let finite = m.residual.iter().all(|v| v.is_finite())
-        && m.h.iter().all(|v| v.is_finite())
-        && m.noise.iter().all(|v| v.is_finite());
-    if !finite {
+    if !m.is_finite() {
         return Err(Reject::NonFinite);
     }
     let pht: SMatrix<f32, DIM, M> = *p * m.h.transpose();
+    gated_update_with(x, p, m, &pht, gate)
+}
+
+/// [`gated_update`] with `P H^T` already computed by the caller (who used
+/// it, e.g., for per-component gating). `pht` must equal `P H^T`.
+pub fn gated_update_with<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    m: &Measurement<M>,
+    pht: &SMatrix<f32, DIM, M>,
+    gate: Option<f32>,
+) -> Result<UpdateReport, Reject> {
+    if !m.is_finite() || !pht.iter().all(|v| v.is_finite()) {
+        return Err(Reject::NonFinite);
+    }
     let mut s = m.h * pht + m.noise;
     s = (s + s.transpose()) * 0.5;
     let chol = nalgebra::Cholesky::new(s).ok_or(Reject::Degenerate)?;
@@ -116,7 +135,6 @@ pub fn gated_update<const M: usize>(
         return Err(Reject::Degenerate);
     }
     *p -= pht * kt;
-    symmetrize(p);
     x.inject(&dx);
     reset(p, &dx);
     symmetrize(p);

@@ -12,8 +12,11 @@ use vslam_core::{Reject, SampleClock, SampleCounts};
 
 use crate::grip::GripParams;
 use crate::state::{Covariance, NominalState, Vec3};
-use crate::update::gated_update;
+use crate::update::gated_update_with;
 use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, wheel_measurement};
+
+// The constraint rows are adjacent (their `P H^T` columns are taken as a block).
+const _: () = assert!(VERTICAL == LATERAL + 1);
 
 /// The forward wheel-velocity innovation of one wheel sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -104,10 +107,17 @@ impl WheelFusion {
         self.stopped =
             libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
         let m = wheel_measurement(x, gyro, rates, grip);
-        let var_fwd = m.component_variance(p, FORWARD).ok_or(Reject::Degenerate)?;
-        let var_diff = m
-            .component_variance(p, DIFFERENTIAL)
-            .ok_or(Reject::Degenerate)?;
+        if !m.is_finite() {
+            return Err(Reject::NonFinite);
+        }
+        // P H^T once: for the per-row gate and for the update.
+        let pht = *p * m.h.transpose();
+        let variance = |row: usize| -> Option<f32> {
+            let hp = m.h.row(row) * pht.column(row);
+            Some(hp.sum() + *m.noise.get((row, row))?)
+        };
+        let var_fwd = variance(FORWARD).ok_or(Reject::Degenerate)?;
+        let var_diff = variance(DIFFERENTIAL).ok_or(Reject::Degenerate)?;
         let forward = m.residual.get(FORWARD).copied().ok_or(Reject::Degenerate)?;
         let diff = m
             .residual
@@ -121,9 +131,10 @@ impl WheelFusion {
         let gated = forward * forward / var_fwd > gate || diff * diff / var_diff > gate;
         if gated {
             let constraints = m.select([LATERAL, VERTICAL]).ok_or(Reject::Degenerate)?;
-            gated_update(x, p, &constraints, None)?;
+            let pht_c = pht.fixed_columns::<2>(LATERAL).into_owned();
+            gated_update_with(x, p, &constraints, &pht_c, None)?;
         } else {
-            gated_update(x, p, &m, None)?;
+            gated_update_with(x, p, &m, &pht, None)?;
         }
         let inn = WheelInnovation {
             forward,
