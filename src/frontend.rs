@@ -15,7 +15,7 @@
 
 use heapless::Vec as HVec;
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
-use vslam_core::decompose::{NormalPrior, PinholeIntrinsics, SelectParams, decompose};
+use vslam_core::decompose::{NormalPrior, PinholeIntrinsics, PlaneMotion, SelectParams, decompose};
 use vslam_core::geometry::{Extrinsics, Vec2, Vec3};
 use vslam_core::homography::{HomographyRansac, RansacParams};
 use vslam_core::image::ImageView;
@@ -52,6 +52,9 @@ pub struct FrontEndConfig {
     pub min_tracks: usize,
     /// Longest accepted gap between frames, nanoseconds.
     pub max_gap_ns: u64,
+    /// Largest `|t/d|` of a frame pair taken as a rotation when the ceiling
+    /// prior cannot pick a candidate.
+    pub rotation_only_baseline: f32,
 }
 
 impl FrontEndConfig {
@@ -74,6 +77,7 @@ impl FrontEndConfig {
             prior_max_angle_rad: 0.35,
             min_tracks: 12,
             max_gap_ns: 1_000_000_000,
+            rotation_only_baseline: 0.01,
         }
     }
 }
@@ -304,10 +308,30 @@ impl<'b> FrontEnd<'b> {
                 prior: Some(self.prior),
                 ..SelectParams::default()
             };
-            let sel = dec
-                .select(&p1, mask, &params)
-                .map_err(|_| Reject::Degenerate)?;
-            dec.selected(&sel).copied()
+            match dec.select(&p1, mask, &params) {
+                Ok(sel) => dec.selected(&sel).copied(),
+                // Near a pure rotation the plane normal is unobservable and the
+                // selection fails, but every candidate agrees on R: keep the
+                // rotation of the smallest-baseline candidate with no translation,
+                // so a turn in place is never lost. The scale pipeline then
+                // reports a too-small baseline for this pair.
+                Err(_) => dec
+                    .candidates()
+                    .iter()
+                    .filter(|c| {
+                        c.translation_over_distance.norm() < self.config.rotation_only_baseline
+                    })
+                    .min_by(|a, b| {
+                        a.translation_over_distance
+                            .norm()
+                            .total_cmp(&b.translation_over_distance.norm())
+                    })
+                    .map(|c| PlaneMotion {
+                        translation_over_distance: Vec3::zeros(),
+                        normal: Vec3::zeros(),
+                        ..*c
+                    }),
+            }
         };
         let chosen = chosen.ok_or(Reject::Degenerate)?;
         self.last = Some(stats);

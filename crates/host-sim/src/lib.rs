@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod pngio;
 pub mod replay;
 pub mod sim;
+pub mod simulate;
 pub mod svg;
 pub mod tum;
 

@@ -19,7 +19,7 @@ use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
-use traction::vslam_core::image::{ImageView, LabelView};
+use traction::vslam_core::image::LabelView;
 use traction::vslam_core::scale::{FrameDecision, PipelineConfig};
 use traction::vslam_core::sensors::FlowOptics;
 use traction::vslam_core::{Reject, SampleCounts, Timestamp};
@@ -74,7 +74,11 @@ fn counts_json(c: &SampleCounts) -> Value {
 
 fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
     let (scale, source, why) = match &d.scale {
-        Ok(s) => (json!(s.scale), json!(format!("{:?}", s.source).to_lowercase()), Value::Null),
+        Ok(s) => (
+            json!(s.scale),
+            json!(format!("{:?}", s.source).to_lowercase()),
+            Value::Null,
+        ),
         Err(e) => (Value::Null, Value::Null, json!(format!("{e:?}"))),
     };
     json!({
@@ -92,7 +96,11 @@ fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
 }
 
 fn pose(t: Timestamp, p: Vec3, q: &traction::vslam_core::geometry::Quat) -> TumPose {
-    TumPose { t, p: [p.x as f64, p.y as f64, p.z as f64], q_xyzw: [q.i as f64, q.j as f64, q.k as f64, q.w as f64] }
+    TumPose {
+        t,
+        p: [p.x as f64, p.y as f64, p.z as f64],
+        q_xyzw: [q.i as f64, q.j as f64, q.k as f64, q.w as f64],
+    }
 }
 
 enum Next {
@@ -105,10 +113,16 @@ enum Next {
 pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
     let missing = ds.missing();
     let Some((imu_meta, imu)) = &ds.imu else {
-        return Err(CliError::file(root, "the dataset has no `mav0/imu0`: the EKF needs an IMU"));
+        return Err(CliError::file(
+            root,
+            "the dataset has no `mav0/imu0`: the EKF needs an IMU",
+        ));
     };
     let Some((wheel_meta, wheels)) = &ds.wheel else {
-        return Err(CliError::file(root, "the dataset has no `mav0/wheel0`: odometry needs wheel encoders"));
+        return Err(CliError::file(
+            root,
+            "the dataset has no `mav0/wheel0`: odometry needs wheel encoders",
+        ));
     };
     let mut filter = FilterConfig::default();
     filter.imu_noise.accel_density = imu_meta.accelerometer_noise_density as f32;
@@ -118,12 +132,17 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     let half = 0.5 * wheel_meta.wheel_base as f32;
     filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
     filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
-    filter.robot.radius = (0.5 * (wheel_meta.wheel_radius_left + wheel_meta.wheel_radius_right)) as f32;
+    filter.robot.radius =
+        (0.5 * (wheel_meta.wheel_radius_left + wheel_meta.wheel_radius_right)) as f32;
     let yaml = |s: &str| root.join("mav0").join(s).join("sensor.yaml");
     let flow_optics = match &ds.flow {
         Some((m, _)) => Some(
-            FlowOptics::new(m.counts_per_radian as f32, m.height as f32, extrinsics(&yaml("flow0"), &m.t_bs)?)
-                .map_err(|e| CliError::file(&yaml("flow0"), e.to_string()))?,
+            FlowOptics::new(
+                m.counts_per_radian as f32,
+                m.height as f32,
+                extrinsics(&yaml("flow0"), &m.t_bs)?,
+            )
+            .map_err(|e| CliError::file(&yaml("flow0"), e.to_string()))?,
         ),
         None => None,
     };
@@ -148,10 +167,21 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
         ..PipelineConfig::default()
     };
     let surface = ds.seg.as_ref().map(|(m, _)| {
-        let pairs: Vec<(u8, SurfaceKind)> =
-            m.classes.iter().filter_map(|(id, name)| surface_kind(name).map(|k| (*id, k))).collect();
-        let ground: Vec<u8> = m.ground_classes.iter().copied().filter(|g| pairs.iter().any(|(id, _)| id == g)).collect();
-        SurfaceConfig::new(wheel_type(&wheel_meta.wheel_type), ClassConfig::from_lists(&pairs, &ground))
+        let pairs: Vec<(u8, SurfaceKind)> = m
+            .classes
+            .iter()
+            .filter_map(|(id, name)| surface_kind(name).map(|k| (*id, k)))
+            .collect();
+        let ground: Vec<u8> = m
+            .ground_classes
+            .iter()
+            .copied()
+            .filter(|g| pairs.iter().any(|(id, _)| id == g))
+            .collect();
+        SurfaceConfig::new(
+            wheel_type(&wheel_meta.wheel_type),
+            ClassConfig::from_lists(&pairs, &ground),
+        )
     });
     let config = EstimatorConfig {
         filter,
@@ -164,7 +194,9 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
 
     // The camera path's memory, borrowed by the estimator.
     let cam = ds.cam.as_ref();
-    let (w, h) = cam.map(|(m, _)| (m.resolution[0] as usize, m.resolution[1] as usize)).unwrap_or((1, 1));
+    let (w, h) = cam
+        .map(|(m, _)| (m.resolution[0] as usize, m.resolution[1] as usize))
+        .unwrap_or((1, 1));
     let fe_config = cam
         .map(|(m, _)| {
             let [fu, fv, cu, cv] = m.intrinsics.map(|v| v as f32);
@@ -173,45 +205,70 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
                 .map_err(|e| CliError::file(&yaml("cam0"), format!("`intrinsics`: {e:?}")))
         })
         .transpose()?;
-    let sizes = fe_config.map(|c| FrontEndBuffers::sizes(w, h, c.levels, c.corners.block_size)).unwrap_or([0; 4]);
-    let (mut b0, mut b1, mut b2) = (vec![0u8; sizes[0]], vec![0u8; sizes[1]], vec![0u8; sizes[2]]);
+    let sizes = fe_config
+        .map(|c| FrontEndBuffers::sizes(w, h, c.levels, c.corners.block_size))
+        .unwrap_or([0; 4]);
+    let (mut b0, mut b1, mut b2) = (
+        vec![0u8; sizes[0]],
+        vec![0u8; sizes[1]],
+        vec![0u8; sizes[2]],
+    );
     let mut b3 = vec![0f32; sizes[3]];
     let frontend = match fe_config {
         Some(c) => Some(
-            FrontEnd::new(c, FrontEndBuffers {
-                previous_frame: &mut b0,
-                previous_pyramid: &mut b1,
-                current_pyramid: &mut b2,
-                corner_scratch: &mut b3,
-            })
+            FrontEnd::new(
+                c,
+                FrontEndBuffers {
+                    previous_frame: &mut b0,
+                    previous_pyramid: &mut b1,
+                    current_pyramid: &mut b2,
+                    corner_scratch: &mut b3,
+                },
+            )
             .map_err(|e| CliError::file(&yaml("cam0"), e.to_string()))?,
         ),
         None => None,
     };
     let mut est = Box::new(
-        Estimator::new(&config, frontend).map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
+        Estimator::new(&config, frontend)
+            .map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
     );
 
     // Every stream in time order; images after the samples of the same time stamp.
     let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
     items.extend(imu.iter().map(|s| (s.t, 0, Next::Sample(Event::Imu(*s)))));
-    items.extend(wheels.iter().map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))));
+    items.extend(
+        wheels
+            .iter()
+            .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
+    );
     if let Some((_, f)) = &ds.flow {
         items.extend(f.iter().map(|s| (s.t, 0, Next::Sample(Event::Flow(*s)))));
     }
     if let Some((_, frames)) = &ds.cam {
-        items.extend(frames.iter().enumerate().map(|(i, e)| (e.t, 1, Next::Camera(i))));
+        items.extend(
+            frames
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 1, Next::Camera(i))),
+        );
     }
     if let Some((_, maps)) = &ds.seg {
-        items.extend(maps.iter().enumerate().map(|(i, e)| (e.t, 2, Next::Labels(i))));
+        items.extend(
+            maps.iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 2, Next::Labels(i))),
+        );
     }
     items.sort_by_key(|(t, k, _)| (*t, *k));
 
     let bar = progress.then(|| {
         let b = indicatif::ProgressBar::new(items.len() as u64);
         b.set_style(
-            indicatif::ProgressStyle::with_template("replay {bar:40} {percent:>3}% {pos}/{len} samples, eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "replay {bar:40} {percent:>3}% {pos}/{len} samples, eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     });
@@ -221,8 +278,10 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     let mut vslam = Vec::new();
     let mut surfaces = Vec::new();
     let mut camera_rejections: Vec<Value> = Vec::new();
-    let mut handle = |p: Processed, est: &Estimator<'_>, out: &mut Vec<TumPose>| {
-        if let Processed::Imu { t, outcome: Ok(_), .. } = p
+    let handle = |p: Processed, est: &Estimator<'_>, out: &mut Vec<TumPose>| {
+        if let Processed::Imu {
+            t, outcome: Ok(_), ..
+        } = p
             && est.ekf().is_initialised()
         {
             out.push(pose(t, est.ekf().position(), &est.ekf().attitude()));
@@ -241,9 +300,13 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
                     handle(p, &est, &mut ekf_poses);
                 }
                 let Some((_, frames)) = &ds.cam else { continue };
-                let Some(entry) = frames.get(*k) else { continue };
+                let Some(entry) = frames.get(*k) else {
+                    continue;
+                };
                 let img = load_gray(&entry.path)?;
-                let view = img.view().map_err(|e| CliError::file(&entry.path, e.to_string()))?;
+                let view = img
+                    .view()
+                    .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
                 match est.process_camera(*t, &view) {
                     Ok(Some(d)) => {
                         decisions.push(decision_json(*t, &d));
@@ -333,13 +396,23 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     let mut errors = Vec::new();
     if let Some(gt) = &ds.groundtruth {
         let truth = truth_points(gt);
-        for (name, traj) in [("ekf", &ekf_poses), ("vslam", &vslam), ("wheel_only", &wheel_only)] {
+        for (name, traj) in [
+            ("ekf", &ekf_poses),
+            ("vslam", &vslam),
+            ("wheel_only", &wheel_only),
+        ] {
             if let Some(e) = trajectory_error(traj, &truth) {
                 errors.push((name, e));
             }
         }
     }
-    Ok(ReplayOutput { ekf: ekf_poses, vslam, wheel_only, report, errors })
+    Ok(ReplayOutput {
+        ekf: ekf_poses,
+        vslam,
+        wheel_only,
+        report,
+        errors,
+    })
 }
 
 fn truth_points(gt: &[GroundTruth]) -> Vec<(u64, [f64; 3])> {
@@ -347,7 +420,10 @@ fn truth_points(gt: &[GroundTruth]) -> Vec<(u64, [f64; 3])> {
 }
 
 /// Dead reckoning from the wheels alone: the baseline every estimate must beat.
-fn wheel_only(params: &DiffDriveParams, wheels: &[traction::vslam_core::sensors::WheelTicks]) -> Vec<TumPose> {
+fn wheel_only(
+    params: &DiffDriveParams,
+    wheels: &[traction::vslam_core::sensors::WheelTicks],
+) -> Vec<TumPose> {
     let mut odo = DiffDriveOdometry::new(*params);
     let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
     let mut out = Vec::with_capacity(wheels.len());
@@ -360,14 +436,23 @@ fn wheel_only(params: &DiffDriveParams, wheels: &[traction::vslam_core::sensors:
             yaw += step.delta.dyaw as f64;
         }
         let (s, c) = (0.5 * yaw).sin_cos();
-        out.push(TumPose { t: w.t, p: [x, y, 0.0], q_xyzw: [0.0, 0.0, s, c] });
+        out.push(TumPose {
+            t: w.t,
+            p: [x, y, 0.0],
+            q_xyzw: [0.0, 0.0, s, c],
+        });
     }
     out
 }
 
 /// Writes the replay's files into `out`.
-pub fn write_outputs(out_dir: &Path, r: &ReplayOutput, truth: Option<&[GroundTruth]>) -> Result<(), CliError> {
-    std::fs::create_dir_all(out_dir).map_err(|e| CliError::file(out_dir, format!("cannot create: {e}")))?;
+pub fn write_outputs(
+    out_dir: &Path,
+    r: &ReplayOutput,
+    truth: Option<&[GroundTruth]>,
+) -> Result<(), CliError> {
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| CliError::file(out_dir, format!("cannot create: {e}")))?;
     write_tum(&out_dir.join("ekf.tum"), &r.ekf)?;
     write_tum(&out_dir.join("vslam.tum"), &r.vslam)?;
     write_tum(&out_dir.join("wheel_only.tum"), &r.wheel_only)?;
@@ -383,22 +468,45 @@ pub fn write_outputs(out_dir: &Path, r: &ReplayOutput, truth: Option<&[GroundTru
             .collect();
         report["errors"] = Value::Object(errs);
     }
-    let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::file(out_dir, e.to_string()))?;
+    let text = serde_json::to_string_pretty(&report)
+        .map_err(|e| CliError::file(out_dir, e.to_string()))?;
     let p = out_dir.join("report.json");
     std::fs::write(&p, text).map_err(|e| CliError::file(&p, format!("cannot write: {e}")))?;
     let xy = |v: &[TumPose]| v.iter().map(|p| (p.p[0], p.p[1])).collect::<Vec<_>>();
     let (e, v, w) = (xy(&r.ekf), xy(&r.vslam), xy(&r.wheel_only));
-    let t: Vec<(f64, f64)> = truth.map(|g| g.iter().map(|g| (g.p[0], g.p[1])).collect()).unwrap_or_default();
+    let t: Vec<(f64, f64)> = truth
+        .map(|g| g.iter().map(|g| (g.p[0], g.p[1])).collect())
+        .unwrap_or_default();
     let mut series = vec![
-        Series { label: "EKF", colour: "#d62728", points: &e },
-        Series { label: "VSLAM (metric scale)", colour: "#1f77b4", points: &v },
-        Series { label: "wheel only", colour: "#ff7f0e", points: &w },
+        Series {
+            label: "EKF",
+            colour: "#d62728",
+            points: &e,
+        },
+        Series {
+            label: "VSLAM (metric scale)",
+            colour: "#1f77b4",
+            points: &v,
+        },
+        Series {
+            label: "wheel only",
+            colour: "#ff7f0e",
+            points: &w,
+        },
     ];
     if !t.is_empty() {
-        series.insert(0, Series { label: "truth", colour: "black", points: &t });
+        series.insert(
+            0,
+            Series {
+                label: "truth",
+                colour: "black",
+                points: &t,
+            },
+        );
     }
     let p = out_dir.join("trajectory.svg");
-    std::fs::write(&p, top_view("traction: top view", &series)).map_err(|e| CliError::file(&p, format!("cannot write: {e}")))
+    std::fs::write(&p, top_view("traction: top view", &series))
+        .map_err(|e| CliError::file(&p, format!("cannot write: {e}")))
 }
 
 /// The summary table printed after a run with ground truth.
@@ -406,35 +514,63 @@ pub fn summary_table(r: &ReplayOutput) -> String {
     let mut s = String::new();
     s += "trajectory   ATE RMSE [m]  final error [m]  final / path\n";
     for (n, e) in &r.errors {
-        s += &format!("{n:<12} {:>12.3}  {:>15.3}  {:>11.2} %\n", e.ate_rmse, e.final_error, 100.0 * e.final_relative());
+        s += &format!(
+            "{n:<12} {:>12.3}  {:>15.3}  {:>11.2} %\n",
+            e.ate_rmse,
+            e.final_error,
+            100.0 * e.final_relative()
+        );
     }
     let frames = r.report["frames"].as_array().map(Vec::len).unwrap_or(0);
     let mut by_source = std::collections::BTreeMap::new();
     let mut slips = 0usize;
     for f in r.report["frames"].as_array().into_iter().flatten() {
-        let key = f["source"].as_str().map(str::to_string).unwrap_or_else(|| "no scale".into());
+        let key = f["source"]
+            .as_str()
+            .map(str::to_string)
+            .unwrap_or_else(|| "no scale".into());
         *by_source.entry(key).or_insert(0usize) += 1;
         if f["slip_exceeded"].as_bool() == Some(true) {
             slips += 1;
         }
     }
     s += &format!("scale decisions over {frames} frame pairs: ");
-    s += &by_source.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ");
+    s += &by_source
+        .iter()
+        .map(|(k, v)| format!("{k} {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
     s += &format!("\nframe pairs with slip: {slips}\n");
     let c = &r.report["counts"];
     s += &format!(
         "gated samples: wheel {}, flow {}; rejected: imu {}, wheel {}, flow {}, camera {}\n",
-        c["wheel"]["gated"], c["flow"]["gated"],
-        c["imu"]["seen"].as_u64().unwrap_or(0).saturating_sub(c["imu"]["fused"].as_u64().unwrap_or(0)),
-        c["wheel"]["seen"].as_u64().unwrap_or(0).saturating_sub(c["wheel"]["fused"].as_u64().unwrap_or(0) + c["wheel"]["gated"].as_u64().unwrap_or(0)),
-        c["flow"]["seen"].as_u64().unwrap_or(0).saturating_sub(c["flow"]["fused"].as_u64().unwrap_or(0) + c["flow"]["gated"].as_u64().unwrap_or(0)),
-        c["camera"]["seen"].as_u64().unwrap_or(0).saturating_sub(c["camera"]["fused"].as_u64().unwrap_or(0)),
+        c["wheel"]["gated"],
+        c["flow"]["gated"],
+        c["imu"]["seen"]
+            .as_u64()
+            .unwrap_or(0)
+            .saturating_sub(c["imu"]["fused"].as_u64().unwrap_or(0)),
+        c["wheel"]["seen"].as_u64().unwrap_or(0).saturating_sub(
+            c["wheel"]["fused"].as_u64().unwrap_or(0) + c["wheel"]["gated"].as_u64().unwrap_or(0)
+        ),
+        c["flow"]["seen"].as_u64().unwrap_or(0).saturating_sub(
+            c["flow"]["fused"].as_u64().unwrap_or(0) + c["flow"]["gated"].as_u64().unwrap_or(0)
+        ),
+        c["camera"]["seen"]
+            .as_u64()
+            .unwrap_or(0)
+            .saturating_sub(c["camera"]["fused"].as_u64().unwrap_or(0)),
     );
-    let events = r.report["events"].as_array().map(|v| v.as_slice()).unwrap_or(&[]);
+    let events = r.report["events"]
+        .as_array()
+        .map(|v| v.as_slice())
+        .unwrap_or(&[]);
     let count = |k: &str| events.iter().filter(|e| e["kind"] == k).count();
     s += &format!(
         "events: suspected obstacles {}, threshold strips {}, surface noise {}\n",
-        count("SuspectedObstacle"), count("ThresholdStrip"), count("SurfaceNoise")
+        count("SuspectedObstacle"),
+        count("ThresholdStrip"),
+        count("SurfaceNoise")
     );
     s
 }
