@@ -4,7 +4,9 @@
 //! 2nd ed., Algorithms 4.2 and 4.6), as computed by
 //! [`vslam_core::homography::HomographyRansac`].
 
-use super::{RANSAC_SEED, format_matrix, homography_row_major, parse_threshold, ransac_error};
+use super::{
+    RANSAC_SEED, format_matrix, homography_row_major, parse_threshold, ransac_error, write_stdout,
+};
 use crate::error::CliError;
 use crate::matches::read_matches;
 use clap::Args;
@@ -87,9 +89,11 @@ pub fn run(args: HomographyArgs) -> Result<(), CliError> {
         };
         let text = serde_json::to_string(&out)
             .map_err(|e| CliError::Usage(format!("cannot write JSON: {e}")))?;
-        println!("{text}");
+        write_stdout(&format!("{text}\n"))
     } else {
-        println!(
+        let mut s = String::new();
+        outln!(
+            s,
             "{what}: {} matches, {} inliers (threshold {} px, RMS transfer error {:.3} px, \
              {} RANSAC samples{})",
             report.point_count,
@@ -110,8 +114,8 @@ pub fn run(args: HomographyArgs) -> Result<(), CliError> {
             .map(|(i, _)| (i + 1).to_string())
             .collect();
         if !outliers.is_empty() {
-            println!("outliers (match number): {}", outliers.join(" "));
+            outln!(s, "outliers (match number): {}", outliers.join(" "));
         }
+        write_stdout(&s)
     }
-    Ok(())
 }

@@ -5,14 +5,39 @@
 //! This module holds what the commands share: argument parsers, the fixed
 //! RANSAC seed, and how estimation errors map onto exit codes.
 
+/// Appends one formatted line to a `String` (the commands build their whole
+/// output before writing it, so a failure never leaves half a report).
+macro_rules! outln {
+    ($s:expr, $($arg:tt)*) => {{
+        $s.push_str(&format!($($arg)*));
+        $s.push('\n');
+    }};
+}
+
 pub mod homography;
 pub mod track;
 
 use crate::error::CliError;
+use std::io::Write;
+use std::path::Path;
 use vslam_core::homography::{Homography, HomographyError};
 
 /// Seed of every RANSAC run of the program: equal inputs give equal outputs.
 pub const RANSAC_SEED: u64 = 0x7472_6163_7469_6f6e; // "traction"
+
+/// Writes a finished report to stdout. A closed pipe (`| head`) is not an
+/// error; any other write failure is.
+pub fn write_stdout(text: &str) -> Result<(), CliError> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(CliError::file(
+            Path::new("<stdout>"),
+            format!("cannot write: {e}"),
+        )),
+    }
+}
 
 /// Parses `a,b,c,...` into exactly `N` finite numbers (for clap).
 pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f32; N], String> {

@@ -8,6 +8,7 @@
 
 use super::{
     RANSAC_SEED, format_matrix, homography_row_major, parse_numbers, parse_threshold, ransac_error,
+    write_stdout,
 };
 use crate::error::CliError;
 use crate::pngio::{GrayImage, load_gray};
@@ -294,8 +295,10 @@ fn vec3(v: &Vec3) -> String {
     format!("({:+.4}, {:+.4}, {:+.4})", v.x, v.y, v.z)
 }
 
-fn print_summary(args: &TrackArgs, o: &Outcome) {
-    println!(
+fn summary(args: &TrackArgs, o: &Outcome) -> String {
+    let mut s = String::new();
+    outln!(
+        s,
         "{} -> {}: {} corners, {} tracked ({} levels, {} px window)",
         args.img1.display(),
         args.img2.display(),
@@ -310,24 +313,34 @@ fn print_summary(args: &TrackArgs, o: &Outcome) {
         .map(|r| format!("{} {}", r.name(), o.counts.lost_for(*r)))
         .collect();
     if !lost.is_empty() {
-        println!("lost: {}", lost.join(", "));
+        outln!(s, "lost: {}", lost.join(", "));
     }
     let r = &o.report;
-    println!(
+    outln!(
+        s,
         "homography: {} inliers of {} tracked (threshold {} px, RMS transfer error {:.3} px, \
          {} RANSAC samples)",
-        r.inlier_count, r.point_count, args.threshold, r.rms_error_px, r.iterations
+        r.inlier_count,
+        r.point_count,
+        args.threshold,
+        r.rms_error_px,
+        r.iterations
     );
-    println!(
+    outln!(
+        s,
         "H (IMG1 -> IMG2, H[2][2] = 1):\n{}",
         format_matrix(&homography_row_major(&r.homography))
     );
     let Some(d) = &o.decomposition else {
-        println!("decomposition: not computed (give --intrinsics fu,fv,cu,cv)");
-        return;
+        outln!(
+            s,
+            "decomposition: not computed (give --intrinsics fu,fv,cu,cv)"
+        );
+        return s;
     };
-    let s = d.singular_values();
-    println!(
+    let sv = d.singular_values();
+    outln!(
+        s,
         "decomposition: {} candidate(s){}, singular values {:.5} {:.5} {:.5}",
         d.candidates().len(),
         if d.is_pure_rotation() {
@@ -335,9 +348,9 @@ fn print_summary(args: &TrackArgs, o: &Outcome) {
         } else {
             ""
         },
-        s[0],
-        s[1],
-        s[2]
+        sv[0],
+        sv[1],
+        sv[2]
     );
     let chosen = match &o.selection {
         Some(Ok(sel)) => Some(sel.index),
@@ -349,7 +362,8 @@ fn print_summary(args: &TrackArgs, o: &Outcome) {
             .axis_angle()
             .map(|(a, ang)| (a.into_inner(), ang))
             .unwrap_or((Vec3::z(), 0.0));
-        println!(
+        outln!(
+            s,
             "  #{i}{} R: {:.3} deg about {}  t/d: {}  n: {}",
             if chosen == Some(i) { "*" } else { " " },
             angle.to_degrees(),
@@ -364,7 +378,8 @@ fn print_summary(args: &TrackArgs, o: &Outcome) {
                 .prior_angle_rad
                 .map(|a| format!(", normal {:.1} deg from the prior", a.to_degrees()))
                 .unwrap_or_default();
-            println!(
+            outln!(
+                s,
                 "selected: #{} ({} of {} candidates pass the depth test; {} of {} inliers in \
                  front of both cameras{prior})",
                 sel.index,
@@ -381,10 +396,11 @@ fn print_summary(args: &TrackArgs, o: &Outcome) {
                 }
                 _ => "",
             };
-            println!("selected: none: {e}{hint}");
+            outln!(s, "selected: none: {e}{hint}");
         }
         None => {}
     }
+    s
 }
 
 /// Runs `host-sim track`.
@@ -393,9 +409,8 @@ pub fn run(args: TrackArgs) -> Result<(), CliError> {
     if args.json {
         let text = serde_json::to_string(&json_output(&outcome))
             .map_err(|e| CliError::Usage(format!("cannot write JSON: {e}")))?;
-        println!("{text}");
+        write_stdout(&format!("{text}\n"))
     } else {
-        print_summary(&args, &outcome);
+        write_stdout(&summary(&args, &outcome))
     }
-    Ok(())
 }
