@@ -14,12 +14,11 @@ struct Cli {
     command: Command,
 }
 
-/// The commands.
+// The commands. Their help lives on the argument structs in `host_sim::cli`
+// (a doc comment here would replace it).
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Track corners from IMG1 to IMG2, fit a homography, decompose it.
     Track(cli::track::TrackArgs),
-    /// Robust homography from a file of point matches.
     Homography(cli::homography::HomographyArgs),
 }
 

@@ -145,3 +145,23 @@ fn too_few_matches_is_no_result() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.txt"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn collinear_matches_are_no_result() {
+    let dir = temp_dir("line");
+    let path = dir.join("line.txt");
+    let text: String = (0..12)
+        .map(|i| format!("{} {} {} {}\n", 10 * i, 5 * i, 10 * i + 3, 5 * i + 1))
+        .collect();
+    std::fs::write(&path, text).unwrap();
+    let out = run(&["homography", path.to_str().unwrap(), "--json"]);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.is_empty());
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("host-sim: no homography"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

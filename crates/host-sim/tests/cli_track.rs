@@ -17,6 +17,13 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Removes a test's files, unless `KEEP` is set (to rerun the program on them).
+fn cleanup(dir: &Path) {
+    if std::env::var_os("KEEP").is_none() {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
 fn run(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .args(args)
@@ -166,9 +173,7 @@ fn recovers_a_known_homography() {
         serde_json::from_slice::<serde_json::Value>(&again.stdout).unwrap(),
         v
     );
-    if std::env::var_os("KEEP").is_none() {
-        let _ = std::fs::remove_dir_all(&dir);
-    }
+    cleanup(&dir);
 }
 
 /// Angle of `a^T b`, degrees.
@@ -260,7 +265,7 @@ fn decomposes_a_plane_induced_homography() {
     ]);
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains(&format!("selected: #{best}")), "{s}");
-    let _ = std::fs::remove_dir_all(&dir);
+    cleanup(&dir);
 }
 
 #[test]
@@ -297,7 +302,7 @@ fn bad_files_exit_2_naming_the_file() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("small.png") && err.contains("64x48"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
+    cleanup(&dir);
 }
 
 #[test]
@@ -318,5 +323,17 @@ fn no_texture_is_no_result_without_output() {
     assert_eq!(out.status.code(), Some(1));
     assert!(out.stdout.is_empty());
     assert!(!out.stderr.is_empty());
-    let _ = std::fs::remove_dir_all(&dir);
+    cleanup(&dir);
+}
+
+#[test]
+fn help_documents_the_json_without_intrinsics() {
+    let out = run(&["track", "--help"]);
+    assert!(out.status.success());
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains("\"decompositions\": [] and \"selected\": null"),
+        "{s}"
+    );
+    assert!(s.contains("--intrinsics <fu,fv,cu,cv>"), "{s}");
 }

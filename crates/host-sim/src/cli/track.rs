@@ -357,17 +357,19 @@ fn summary(args: &TrackArgs, o: &Outcome) -> String {
         _ => None,
     };
     for (i, c) in d.candidates().iter().enumerate() {
-        let (axis, angle) = c
-            .rotation
-            .axis_angle()
-            .map(|(a, ang)| (a.into_inner(), ang))
-            .unwrap_or((Vec3::z(), 0.0));
+        // Angle-axis; nalgebra gives no axis for the identity.
+        let rotation = match c.rotation.axis_angle() {
+            Some((axis, angle)) if angle > 1e-6 => format!(
+                "{:.3} deg about {}",
+                angle.to_degrees(),
+                vec3(&axis.into_inner())
+            ),
+            _ => "identity".to_owned(),
+        };
         outln!(
             s,
-            "  #{i}{} R: {:.3} deg about {}  t/d: {}  n: {}",
+            "  #{i}{} R: {rotation}  t/d: {}  n: {}",
             if chosen == Some(i) { "*" } else { " " },
-            angle.to_degrees(),
-            vec3(&axis),
             vec3(&c.translation_over_distance),
             vec3(&c.normal)
         );
