@@ -167,6 +167,15 @@ fn recovers_a_known_homography() {
     // Without intrinsics nothing is decomposed.
     assert_eq!(v["decompositions"], serde_json::json!([]));
     assert!(v["selected"].is_null());
+    // The summary says the same.
+    let out = run(&["track", &i1, &i2]);
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains(&format!("{} corners, {tracked} tracked", tracks.len())),
+        "{s}"
+    );
+    assert!(s.contains(&format!("homography: {inliers} inliers")), "{s}");
+    assert!(s.contains("decomposition: not computed"), "{s}");
     // Fixed seed: the same files give the same output.
     let again = run(&["track", &i1, &i2, "--json"]);
     assert_eq!(
