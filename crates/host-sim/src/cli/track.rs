@@ -93,8 +93,6 @@ struct Outcome {
     results: Vec<TrackResult>,
     counts: TrackCounts,
     report: RansacReport,
-    /// Inlier flag per tracked pair (in track order).
-    mask: Vec<bool>,
     decomposition: Option<HomographyDecomposition>,
     selection: Option<Result<Selection, SelectError>>,
 }
@@ -140,8 +138,31 @@ fn image_error(path: &Path, e: impl std::fmt::Display) -> CliError {
     CliError::file(path, e.to_string())
 }
 
+/// The intrinsics and selection settings, if decomposing; checked before
+/// any image is read.
+fn calibration(args: &TrackArgs) -> Result<Option<(PinholeIntrinsics, SelectParams)>, CliError> {
+    let Some([fu, fv, cu, cv]) = args.intrinsics else {
+        return Ok(None);
+    };
+    let k = PinholeIntrinsics::new(fu, fv, cu, cv)
+        .map_err(|e| CliError::Usage(format!("--intrinsics: {e}")))?;
+    let prior = match args.normal {
+        None => None,
+        Some(n) => Some(
+            NormalPrior::new(&Vec3::from(n), args.normal_max_angle.to_radians())
+                .map_err(|e| CliError::Usage(format!("--normal: {e}")))?,
+        ),
+    };
+    let params = SelectParams {
+        prior,
+        ..SelectParams::default()
+    };
+    Ok(Some((k, params)))
+}
+
 /// Runs the pipeline; nothing is printed here.
 fn estimate(args: &TrackArgs) -> Result<Outcome, CliError> {
+    let calibration = calibration(args)?;
     let (img1, img2) = load_pair(args)?;
     let view1 = img1.view().map_err(|e| image_error(&args.img1, e))?;
     let view2 = img2.view().map_err(|e| image_error(&args.img2, e))?;
@@ -214,25 +235,12 @@ fn estimate(args: &TrackArgs) -> Result<Outcome, CliError> {
         .estimate(&p1, &p2, &mut mask)
         .map_err(|e| ransac_error(&what, e))?;
 
-    let (decomposition, selection) = match args.intrinsics {
+    let (decomposition, selection) = match calibration {
         None => (None, None),
-        Some([fu, fv, cu, cv]) => {
-            let k = PinholeIntrinsics::new(fu, fv, cu, cv)
-                .map_err(|e| CliError::Usage(format!("--intrinsics: {e}")))?;
+        Some((k, params)) => {
             let d = decompose(&report.homography, &k).map_err(|e| {
                 CliError::NoResult(format!("the homography cannot be decomposed: {e}"))
             })?;
-            let prior = match args.normal {
-                None => None,
-                Some(n) => Some(
-                    NormalPrior::new(&Vec3::from(n), args.normal_max_angle.to_radians())
-                        .map_err(|e| CliError::Usage(format!("--normal: {e}")))?,
-                ),
-            };
-            let params = SelectParams {
-                prior,
-                ..SelectParams::default()
-            };
             let s = d.select(&p1, &mask, &params);
             (Some(d), Some(s))
         }
@@ -242,7 +250,6 @@ fn estimate(args: &TrackArgs) -> Result<Outcome, CliError> {
         results,
         counts,
         report,
-        mask,
         decomposition,
         selection,
     })
