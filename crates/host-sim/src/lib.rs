@@ -10,6 +10,7 @@
 
 pub mod asl;
 pub mod chips;
+pub mod cli;
 pub mod error;
 pub mod matches;
 pub mod metrics;

@@ -1,5 +1,38 @@
-//! `host-sim`: the host program of traction. The commands are added in
-//! `src/cli/` as they land.
-fn main() {
-    println!("host-sim {}", env!("CARGO_PKG_VERSION"));
+//! `host-sim`: the host program of traction. Parses the command line and
+//! dispatches to `host_sim::cli::*::run`; errors print as `host-sim: {error}`
+//! and exit with [`host_sim::CliError::exit_code`] (2 bad input, 1 no result).
+
+use clap::{Parser, Subcommand};
+use host_sim::cli;
+use std::process::ExitCode;
+
+/// traction on a host: two-image tracking and homographies.
+#[derive(Debug, Parser)]
+#[command(name = "host-sim", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+// The commands. Their help lives on the argument structs in `host_sim::cli`
+// (a doc comment here would replace it).
+#[derive(Debug, Subcommand)]
+enum Command {
+    Track(cli::track::TrackArgs),
+    Homography(cli::homography::HomographyArgs),
+}
+
+fn main() -> ExitCode {
+    let args = Cli::parse();
+    let result = match args.command {
+        Command::Track(a) => cli::track::run(a),
+        Command::Homography(a) => cli::homography::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("host-sim: {e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
 }
