@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 use host_sim::cli;
 use std::process::ExitCode;
 
-/// traction on a host: two-image tracking and homographies.
+/// traction on a host: simulate, replay recorded logs, track, estimate homographies.
 #[derive(Debug, Parser)]
 #[command(name = "host-sim", version, about)]
 struct Cli {
@@ -18,6 +18,8 @@ struct Cli {
 // (a doc comment here would replace it).
 #[derive(Debug, Subcommand)]
 enum Command {
+    Simulate(cli::run::SimulateArgs),
+    Replay(cli::run::ReplayArgs),
     Track(cli::track::TrackArgs),
     Homography(cli::homography::HomographyArgs),
 }
@@ -25,6 +27,8 @@ enum Command {
 fn main() -> ExitCode {
     let args = Cli::parse();
     let result = match args.command {
+        Command::Simulate(a) => cli::run::run_simulate_cmd(a),
+        Command::Replay(a) => cli::run::run_replay_cmd(a),
         Command::Track(a) => cli::track::run(a),
         Command::Homography(a) => cli::homography::run(a),
     };
