@@ -143,6 +143,9 @@ impl EncoderSim {
             0
         } else if cmd & 0x4000 != 0 {
             self.register(cmd & 0x3FFF)
+        } else if cmd & 0x3FFF == NOP {
+            // NOP (0x0000): dummy frame that clocks out the previous answer; no data frame follows.
+            0
         } else {
             self.write_to = Some(cmd & 0x3FFF);
             0
@@ -242,5 +245,26 @@ mod tests {
         assert_eq!(s.angle, 4096);
         s.set_angle_radians(-std::f64::consts::TAU * 0.25);
         assert_eq!(s.angle, 12_288);
+    }
+}
+
+#[cfg(test)]
+mod nop_tests {
+    use super::*;
+
+    #[test]
+    fn a_zero_nop_frame_is_not_a_write() {
+        let mut s = EncoderSim::new();
+        s.set_angle_counts(1234);
+        let mut frame = |cmd: u16| {
+            let mut b = cmd.to_be_bytes();
+            s.transaction(&mut [Operation::TransferInPlace(&mut b)])
+                .unwrap();
+            u16::from_be_bytes(b)
+        };
+        for _ in 0..3 {
+            frame(0xFFFF); // READ ANGLECOM
+            assert_eq!(frame(0x0000) & 0x3FFF, 1234);
+        }
     }
 }

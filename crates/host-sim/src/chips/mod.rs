@@ -72,3 +72,36 @@ pub(crate) fn exchange(
         }
     }
 }
+
+/// A simulator shared between the driver that owns its bus and the
+/// simulation that moves it: `SpiDevice` through a `RefCell`.
+pub struct Shared<T>(pub std::rc::Rc<std::cell::RefCell<T>>);
+
+impl<T> Shared<T> {
+    /// Wraps a simulator.
+    pub fn new(chip: T) -> Self {
+        Shared(std::rc::Rc::new(std::cell::RefCell::new(chip)))
+    }
+    /// Another handle to the same simulator.
+    pub fn handle(&self) -> Self {
+        Shared(self.0.clone())
+    }
+}
+
+impl<T: embedded_hal::spi::ErrorType> embedded_hal::spi::ErrorType for Shared<T> {
+    type Error = T::Error;
+}
+
+impl<T: embedded_hal::spi::SpiDevice> embedded_hal::spi::SpiDevice for Shared<T> {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), T::Error> {
+        self.0.borrow_mut().transaction(operations)
+    }
+}
+
+/// A delay that takes no time: the simulated chips are always ready.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoDelay;
+
+impl embedded_hal::delay::DelayNs for NoDelay {
+    fn delay_ns(&mut self, _ns: u32) {}
+}

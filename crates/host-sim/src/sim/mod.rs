@@ -1,4 +1,5 @@
 //! The simulated world, robot and sensors of `host-sim simulate`.
+pub mod drivers;
 pub mod motion;
 pub mod render;
 pub mod scenario;

@@ -29,14 +29,14 @@ pub struct Robot {
 
 impl Robot {
     /// A robot vacuum: 35 mm wheels, the left one 2 % larger than nominal,
-    /// the right 1 % smaller, 230 mm track.
+    /// the right 1 % smaller, 230 mm track, AS5047P encoders on the wheels.
     pub fn vacuum() -> Self {
         Robot {
             nominal_radius: 0.035,
             radius_left: 0.035 * 1.02,
             radius_right: 0.035 * 0.99,
             wheel_base: 0.23,
-            ticks_per_revolution: 1024.0,
+            ticks_per_revolution: super::drivers::ENCODER_COUNTS,
             max_accel: 0.6,
             max_yaw_accel: 3.0,
         }

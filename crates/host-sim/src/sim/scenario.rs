@@ -1,9 +1,10 @@
 //! Named scenarios and the generation of a whole ASL dataset from one.
 
+use super::drivers::{flow_through_driver, wheels_through_driver};
 use super::motion::{Robot, TruthStep, integrate};
 use super::render::{Camera, Texture, render_ceiling, render_labels};
 use super::script::{Episode, EpisodeKind, Script};
-use super::sensors::{FlowModel, ImuModel, flow, imu, wheels};
+use super::sensors::{FlowModel, ImuModel, flow, imu, wheel_angles};
 use super::world::{SEG_CLASSES, SEG_GROUND, World};
 use crate::asl::{
     CameraMeta, Dataset, FlowMeta, GroundTruth, ImageEntry, ImuMeta, SegMeta, WheelMeta,
@@ -127,8 +128,10 @@ pub fn generate(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let truth = integrate(&sc.world, &sc.script, &sc.robot);
     let (imu_samples, biases) = imu(&truth, &sc.imu, &mut rng);
-    let wheel_samples = wheels(&truth, &sc.robot, sc.wheel_rate_hz);
-    let flow_samples = flow(&truth, &sc.flow, &mut rng);
+    // Encoders and the flow sensor are read through the real drivers from
+    // register-level chip simulators.
+    let wheel_samples = wheels_through_driver(&wheel_angles(&truth, sc.wheel_rate_hz))?;
+    let flow_samples = flow_through_driver(&flow(&truth, &sc.flow, &mut rng))?;
 
     let cam_dir = root.join("mav0/cam0/data");
     let seg_dir = root.join("mav0/seg0/data");

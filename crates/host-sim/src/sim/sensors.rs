@@ -1,12 +1,12 @@
 //! Sensor readings from the true motion: IMU (250 Hz), wheel encoders
 //! (50 Hz), downward optical flow (100 Hz), each with its noise model.
 
-use super::motion::{Robot, TRUTH_STEP_NS, TruthStep};
+use super::motion::{TRUTH_STEP_NS, TruthStep};
 use super::world::Surface;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use vslam_core::Timestamp;
-use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+use vslam_core::sensors::{FlowSample, RawImuSample};
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY: f64 = 9.81;
@@ -115,18 +115,14 @@ pub fn imu(
     (out, biases)
 }
 
-/// Cumulative encoder counts at `rate_hz` from the true wheel angles.
-pub fn wheels(truth: &[TruthStep], robot: &Robot, rate_hz: f64) -> Vec<WheelTicks> {
+/// The true wheel angles (radians, cumulative, left and right) at `rate_hz`:
+/// what the encoders are read at.
+pub fn wheel_angles(truth: &[TruthStep], rate_hz: f64) -> Vec<(Timestamp, f64, f64)> {
     let every = ((1e9 / rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
-    let per_rad = robot.ticks_per_revolution / std::f64::consts::TAU;
     truth
         .iter()
         .step_by(every)
-        .map(|s| WheelTicks {
-            t: Timestamp(s.t_ns),
-            left: (s.wheel_angle[0] * per_rad).floor() as i64,
-            right: (s.wheel_angle[1] * per_rad).floor() as i64,
-        })
+        .map(|s| (Timestamp(s.t_ns), s.wheel_angle[0], s.wheel_angle[1]))
         .collect()
 }
 
