@@ -142,6 +142,20 @@ fn sensors_may_be_absent() {
         .collect();
     assert_eq!(missing, vec!["flow0", "seg0"]);
     assert!(!r.ekf.is_empty() && !r.vslam.is_empty());
+
+    // No wheels: the EKF runs on IMU alone, the camera path still gives poses.
+    std::fs::remove_dir_all(data.join("mav0/wheel0")).unwrap();
+    let r = replay(&read_dataset(&data).unwrap(), &data, false).unwrap();
+    assert!(!r.ekf.is_empty() && !r.vslam.is_empty() && r.wheel_only.is_empty());
+    // No IMU either: no EKF trajectory, and the report says what is missing.
+    std::fs::remove_dir_all(data.join("mav0/imu0")).unwrap();
+    let r = replay(&read_dataset(&data).unwrap(), &data, false).unwrap();
+    assert!(r.ekf.is_empty() && !r.vslam.is_empty());
+    let missing = r.report["missing_sensors"].to_string();
+    assert!(
+        missing.contains("imu0") && missing.contains("wheel0"),
+        "{missing}"
+    );
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -3,7 +3,7 @@
 //! `trajectory.svg`. All estimation happens in the no_std crates; this
 //! module only reads, feeds, collects and writes.
 
-use crate::asl::{Dataset, GroundTruth};
+use crate::asl::{Dataset, GroundTruth, WheelMeta};
 use crate::error::CliError;
 use crate::metrics::{TrajectoryError, trajectory_error};
 use crate::pngio::load_gray;
@@ -112,23 +112,29 @@ enum Next {
 /// Replays `ds` (read from `root`) through the estimator.
 pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
     let missing = ds.missing();
-    let Some((imu_meta, imu)) = &ds.imu else {
-        return Err(CliError::file(
-            root,
-            "the dataset has no `mav0/imu0`: the EKF needs an IMU",
-        ));
-    };
-    let Some((wheel_meta, wheels)) = &ds.wheel else {
-        return Err(CliError::file(
-            root,
-            "the dataset has no `mav0/wheel0`: odometry needs wheel encoders",
-        ));
-    };
+    // Any sensor may be absent: what is missing simply never arrives, and the
+    // report's `missing_sensors` says so. Without an IMU the EKF never starts
+    // (ekf.tum stays empty); without wheels the EKF runs on IMU and flow.
+    let no_imu = Vec::new();
+    let no_wheels = Vec::new();
+    let imu = ds.imu.as_ref().map(|(_, v)| v).unwrap_or(&no_imu);
+    let wheels = ds.wheel.as_ref().map(|(_, v)| v).unwrap_or(&no_wheels);
     let mut filter = FilterConfig::default();
-    filter.imu_noise.accel_density = imu_meta.accelerometer_noise_density as f32;
-    filter.imu_noise.gyro_density = imu_meta.gyroscope_noise_density as f32;
-    filter.imu_noise.accel_random_walk = imu_meta.accelerometer_random_walk as f32;
-    filter.imu_noise.gyro_random_walk = imu_meta.gyroscope_random_walk as f32;
+    if let Some((m, _)) = &ds.imu {
+        filter.imu_noise.accel_density = m.accelerometer_noise_density as f32;
+        filter.imu_noise.gyro_density = m.gyroscope_noise_density as f32;
+        filter.imu_noise.accel_random_walk = m.accelerometer_random_walk as f32;
+        filter.imu_noise.gyro_random_walk = m.gyroscope_random_walk as f32;
+    }
+    let default_wheels = WheelMeta {
+        rate_hz: 50.0,
+        ticks_per_revolution: 1024.0,
+        wheel_radius_left: filter.robot.radius as f64,
+        wheel_radius_right: filter.robot.radius as f64,
+        wheel_base: 0.23,
+        wheel_type: String::new(),
+    };
+    let wheel_meta = ds.wheel.as_ref().map(|(m, _)| m).unwrap_or(&default_wheels);
     let half = 0.5 * wheel_meta.wheel_base as f32;
     filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
     filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
@@ -162,7 +168,10 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     };
     let scale = PipelineConfig {
         camera: camera_mount,
-        imu: extrinsics(&yaml("imu0"), &imu_meta.t_bs)?,
+        imu: match &ds.imu {
+            Some((m, _)) => extrinsics(&yaml("imu0"), &m.t_bs)?,
+            None => Extrinsics::identity(),
+        },
         flow_optics,
         ..PipelineConfig::default()
     };
