@@ -37,7 +37,7 @@ pub struct SimulateArgs {
 #[command(
     about = "Replay a recorded ASL dataset through the estimator",
     long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, cam0, seg0, \
-                  state_groundtruth_estimate0; any may be absent except imu0 and wheel0), runs it \
+                  state_groundtruth_estimate0; any may be absent, the report names what is missing), runs it \
                   through the estimator and writes DIR/ekf.tum, DIR/vslam.tum, \
                   DIR/wheel_only.tum, DIR/report.json and DIR/trajectory.svg. With ground truth \
                   present it prints the summary table. Exit codes: 2 for bad input (the file and \
