@@ -261,3 +261,97 @@ fn a_dominant_floor_change_without_announcement_is_a_crossing() {
     assert_eq!(ctx.last_crossing, Some(at(0.5)));
     assert_eq!(ctx.surface, Some(SurfaceKind::Tile));
 }
+
+#[test]
+fn a_camera_geometry_from_its_mount() {
+    // The test camera as `T_BS` (row-major, as in a `sensor.yaml`): camera x
+    // = body -y, camera y = (-sin p, 0, -cos p), optical axis (cos p, 0, -sin p).
+    let (s, c) = (PITCH as f32).sin_cos();
+    let (x, z) = (OFFSET as f32, CAM_HEIGHT as f32);
+    let mount = vslam_core::geometry::Extrinsics::from_row_major(&[
+        0.0, -s, c, x, -1.0, 0.0, 0.0, 0.0, 0.0, -c, -s, z, 0.0, 0.0, 0.0, 1.0,
+    ])
+    .unwrap();
+    let cam = GroundCamera::from_mount(FY as f32, CY as f32, IMAGE_H as f32, &mount).unwrap();
+    for d in [0.25, 0.4, 1.0] {
+        let est = cam
+            .ground_distance(row_fraction_of_distance(d) as f32)
+            .unwrap();
+        assert!((est as f64 - d).abs() < 1e-3, "{d}: {est}");
+    }
+    // The horizon row: rays through it are parallel to the floor.
+    let horizon = (CY - FY * PITCH.tan()) / IMAGE_H;
+    assert!((cam.horizon_fraction() as f64 - horizon).abs() < 1e-2);
+    // Pitched down by more than half the vertical field of view: floor everywhere.
+    let steep = GroundCamera::new(60.0, 29.5, 60.0, 0.08, 0.61, 0.15).unwrap();
+    assert_eq!(steep.horizon_fraction(), 0.0);
+    // Mounted upside down, rows grow away from the floor.
+    let flipped = vslam_core::geometry::Extrinsics::from_row_major(&[
+        0.0, s, c, x, 1.0, 0.0, 0.0, 0.0, 0.0, c, -s, z, 0.0, 0.0, 0.0, 1.0,
+    ])
+    .unwrap();
+    assert_eq!(
+        GroundCamera::from_mount(FY as f32, CY as f32, IMAGE_H as f32, &flipped),
+        Err(CameraError::UpsideDown)
+    );
+}
+
+/// Carpet up to a 4 cm threshold strip whose near edge is `edge` metres
+/// ahead of the axle, tile beyond; walls above the camera's horizon.
+fn carpet_strip_tile(edge: f64) -> Vec<u8> {
+    let row = |d: f64| {
+        if d > OFFSET + 1e-6 {
+            row_fraction_of_distance(d)
+        } else {
+            f64::INFINITY
+        }
+    };
+    let (lower, upper) = (row(edge), row(edge + 0.04));
+    let horizon = (CY - FY * PITCH.tan()) / IMAGE_H + 0.01;
+    map(W, H, |_, y| {
+        let centre = (y as f64 + 0.5) / H as f64;
+        if centre < horizon {
+            WALL
+        } else if centre > lower {
+            CARPET
+        } else if centre >= upper {
+            STRIP
+        } else {
+            TILE
+        }
+    })
+}
+
+#[test]
+fn a_strip_and_the_floor_behind_it_wait_for_the_wheels() {
+    // Driving at 0.4 m/s towards a strip 0.40 m ahead: the wheels reach it at
+    // 1.0 s. At 0.5 s the strip is at the bottom of the view and tile is the
+    // nearest floor there, at 0.9 s the view is all tile; the wheels are on
+    // carpet throughout, and the crossing is the strip's, not a map's time.
+    let mut c = SurfaceConfig::for_camera(WheelType::HardRubber, classes(), camera());
+    c.tracker = TrackerConfig::new(5 * S, 2 * S, 200_000_000, 0.02, 10 * S).unwrap();
+    let mut m = SurfaceModel::new(c);
+    let speed = 0.4;
+    for t in [0.0, 0.5, 0.9] {
+        let labels = carpet_strip_tile(0.40 - speed * t);
+        feed(&mut m, at(t), &labels, speed as f32).unwrap();
+        let s = m.state_at(at(t));
+        assert_eq!(s.dominant(), Some(SurfaceKind::Carpet), "at {t} s");
+        assert_eq!(m.tracker().last_crossing(at(t)), None, "at {t} s");
+        let a = s.anticipation.expect("the strip stays announced");
+        assert_eq!(a.kind, SurfaceKind::Threshold);
+        let eta = a.arrival.unwrap().seconds_since(Timestamp(0)).unwrap();
+        assert!((eta - 1.0).abs() < 0.05, "arrival at {eta} s");
+    }
+    feed(
+        &mut m,
+        at(1.3),
+        &carpet_strip_tile(0.40 - speed * 1.3),
+        speed as f32,
+    )
+    .unwrap();
+    assert_eq!(m.state_at(at(1.3)).dominant(), Some(SurfaceKind::Tile));
+    let crossing = m.tracker().last_crossing(at(1.3)).unwrap();
+    let c = crossing.seconds_since(Timestamp(0)).unwrap();
+    assert!((c - 1.0).abs() < 0.05, "crossing at {c} s");
+}

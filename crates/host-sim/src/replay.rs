@@ -3,7 +3,7 @@
 //! `trajectory.svg`. All estimation happens in the no_std crates; this
 //! module only reads, feeds, collects and writes.
 
-use crate::asl::{Dataset, GroundTruth, WheelMeta};
+use crate::asl::{Dataset, GroundTruth, SegMeta, WheelMeta};
 use crate::error::CliError;
 use crate::metrics::{TrajectoryError, trajectory_error};
 use crate::pngio::load_gray;
@@ -11,8 +11,10 @@ use crate::svg::{Series, top_view};
 use crate::tum::{TumPose, write_tum};
 use serde_json::{Value, json};
 use std::path::Path;
-use traction::ego_ekf::events::JoltConfig;
-use traction::ego_ekf::surface::{ClassConfig, SurfaceConfig, SurfaceKind, WheelType};
+use traction::ego_ekf::events::{JoltConfig, JoltEvent};
+use traction::ego_ekf::surface::{
+    ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
+};
 use traction::ego_ekf::{FilterConfig, FlowConfig};
 use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
@@ -109,8 +111,70 @@ enum Next {
     Labels(usize),
 }
 
+/// How a replay is run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReplayOptions {
+    /// Use the segmentation maps (when the dataset has them) for the
+    /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
+    /// grip and one fixed jolt threshold, for comparison.
+    pub surface_model: bool,
+}
+
+impl Default for ReplayOptions {
+    /// The surface model on.
+    fn default() -> Self {
+        ReplayOptions {
+            surface_model: true,
+        }
+    }
+}
+
+/// The surface model's configuration from `seg0/sensor.yaml`: the class
+/// table, and the ground geometry of the camera that took the maps
+/// (intrinsics, resolution and `T_BS`).
+fn surface_config(
+    m: &SegMeta,
+    wheel_meta: &WheelMeta,
+    path: &Path,
+) -> Result<SurfaceConfig, CliError> {
+    let pairs: Vec<(u8, SurfaceKind)> = m
+        .classes
+        .iter()
+        .filter_map(|(id, name)| surface_kind(name).map(|k| (*id, k)))
+        .collect();
+    let ground: Vec<u8> = m
+        .ground_classes
+        .iter()
+        .copied()
+        .filter(|g| pairs.iter().any(|(id, _)| id == g))
+        .collect();
+    let mount = extrinsics(path, &m.t_bs)?;
+    let camera = GroundCamera::from_mount(
+        m.intrinsics[1] as f32,
+        m.intrinsics[3] as f32,
+        m.resolution[1] as f32,
+        &mount,
+    )
+    .map_err(|e| CliError::file(path, format!("segmentation camera: {e}")))?;
+    Ok(SurfaceConfig::for_camera(
+        wheel_type(&wheel_meta.wheel_type),
+        ClassConfig::from_lists(&pairs, &ground),
+        camera,
+    ))
+}
+
 /// Replays `ds` (read from `root`) through the estimator.
 pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
+    replay_with(ds, root, progress, ReplayOptions::default())
+}
+
+/// Replays `ds` (read from `root`) through the estimator, run as `options` say.
+pub fn replay_with(
+    ds: &Dataset,
+    root: &Path,
+    progress: bool,
+    options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
     let missing = ds.missing();
     // Any sensor may be absent: what is missing simply never arrives, and the
     // report's `missing_sensors` says so. Without an IMU the EKF never starts
@@ -175,23 +239,12 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
         flow_optics,
         ..PipelineConfig::default()
     };
-    let surface = ds.seg.as_ref().map(|(m, _)| {
-        let pairs: Vec<(u8, SurfaceKind)> = m
-            .classes
-            .iter()
-            .filter_map(|(id, name)| surface_kind(name).map(|k| (*id, k)))
-            .collect();
-        let ground: Vec<u8> = m
-            .ground_classes
-            .iter()
-            .copied()
-            .filter(|g| pairs.iter().any(|(id, _)| id == g))
-            .collect();
-        SurfaceConfig::new(
-            wheel_type(&wheel_meta.wheel_type),
-            ClassConfig::from_lists(&pairs, &ground),
-        )
-    });
+    let surface = match &ds.seg {
+        Some((m, _)) if options.surface_model => {
+            Some(surface_config(m, wheel_meta, &yaml("seg0"))?)
+        }
+        _ => None,
+    };
     let config = EstimatorConfig {
         filter,
         odometry,
@@ -287,7 +340,15 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     let mut vslam = Vec::new();
     let mut surfaces = Vec::new();
     let mut camera_rejections: Vec<Value> = Vec::new();
-    let handle = |p: Processed, est: &Estimator<'_>, out: &mut Vec<TumPose>| {
+    // Every jolt as it is judged: the monitor's own log keeps only the last
+    // few, a report keeps them all.
+    let mut jolt_events: Vec<JoltEvent> = Vec::new();
+    let handle = |p: Processed,
+                  est: &Estimator<'_>,
+                  (out, jolts): (&mut Vec<TumPose>, &mut Vec<JoltEvent>)| {
+        if let Processed::Imu { jolt: Some(e), .. } = p {
+            jolts.push(e);
+        }
         if let Processed::Imu {
             t, outcome: Ok(_), ..
         } = p
@@ -301,12 +362,12 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
             Next::Sample(e) => {
                 est.offer(*e);
                 while let Some(p) = est.poll() {
-                    handle(p, &est, &mut ekf_poses);
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
                 }
             }
             Next::Camera(k) => {
                 while let Some(p) = est.poll_until(*t) {
-                    handle(p, &est, &mut ekf_poses);
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
                 }
                 let Some((_, frames)) = &ds.cam else { continue };
                 let Some(entry) = frames.get(*k) else {
@@ -331,7 +392,7 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
             }
             Next::Labels(k) => {
                 while let Some(p) = est.poll_until(*t) {
-                    handle(p, &est, &mut ekf_poses);
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
                 }
                 let Some((_, maps)) = &ds.seg else { continue };
                 let Some(entry) = maps.get(*k) else { continue };
@@ -358,16 +419,15 @@ pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput,
     }
     est.finish();
     while let Some(p) = est.poll() {
-        handle(p, &est, &mut ekf_poses);
+        handle(p, &est, (&mut ekf_poses, &mut jolt_events));
     }
     if let Some(b) = bar {
         b.finish_and_clear();
     }
 
     let wheel_only = wheel_only(&odometry, wheels);
-    let jolts: Vec<Value> = est
-        .jolts()
-        .events()
+    let jolts: Vec<Value> = jolt_events
+        .iter()
         .map(|e| {
             json!({"t": e.t.0, "kind": format!("{:?}", e.kind), "magnitude": e.magnitude,
                    "explained": e.explained, "surface": e.surface.map(|s| s.name())})
@@ -586,8 +646,18 @@ pub fn summary_table(r: &ReplayOutput) -> String {
 
 /// Reads, replays and writes: the `replay` command's work.
 pub fn run_replay(dataset: &Path, out: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
+    run_replay_with(dataset, out, progress, ReplayOptions::default())
+}
+
+/// [`run_replay`], run as `options` say.
+pub fn run_replay_with(
+    dataset: &Path,
+    out: &Path,
+    progress: bool,
+    options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
     let ds = crate::asl::read_dataset(dataset)?;
-    let r = replay(&ds, dataset, progress)?;
+    let r = replay_with(&ds, dataset, progress, options)?;
     write_outputs(out, &r, ds.groundtruth.as_deref())?;
     Ok(r)
 }

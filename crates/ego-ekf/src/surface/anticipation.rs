@@ -18,6 +18,7 @@
 use core::fmt;
 
 use vslam_core::Timestamp;
+use vslam_core::geometry::{Extrinsics, Vec3};
 
 use super::classes::SurfaceKind;
 use super::segmentation::UpcomingSurface;
@@ -29,6 +30,8 @@ pub enum CameraError {
     NotPositive,
     /// Principal point, pitch and forward offset must be finite; pitch in `(-pi/2, pi/2)`.
     NonFinite,
+    /// The mounting turns the image upside down (rows grow away from the floor).
+    UpsideDown,
 }
 
 impl fmt::Display for CameraError {
@@ -38,6 +41,7 @@ impl fmt::Display for CameraError {
                 "focal length, image height and camera height must be positive"
             }
             CameraError::NonFinite => "principal point, pitch and offset must be finite",
+            CameraError::UpsideDown => "the camera mounting turns the image upside down",
         })
     }
 }
@@ -94,6 +98,44 @@ impl GroundCamera {
             pitch_down,
             forward_offset,
         })
+    }
+
+    /// The geometry of a camera mounted at `mount` (`T_BS`, camera axes: x
+    /// right, y down the image, z along the optical axis), with vertical focal
+    /// length `fy` and principal-point row `cy`, pixels, in an image
+    /// `image_height` rows high. The height is the mount's `z`, the forward
+    /// offset its `x`, and the pitch the optical axis's depression below the
+    /// body's horizontal plane (the floor's, for a robot standing level).
+    pub fn from_mount(
+        fy: f32,
+        cy: f32,
+        image_height: f32,
+        mount: &Extrinsics,
+    ) -> Result<Self, CameraError> {
+        let axis = mount.r_bs() * Vec3::new(0.0, 0.0, 1.0);
+        let down = mount.r_bs() * Vec3::new(0.0, 1.0, 0.0);
+        // Image rows must grow towards the floor (an upright camera).
+        if down.z > 0.0 {
+            return Err(CameraError::UpsideDown);
+        }
+        let horizontal = libm::sqrtf(axis.x * axis.x + axis.y * axis.y);
+        let pitch_down = libm::atan2f(-axis.z, horizontal);
+        let t = mount.t_bs();
+        GroundCamera::new(fy, cy, image_height, t.z, pitch_down, t.x)
+    }
+
+    /// Where the floor's horizon lies in the image, as a row fraction (0 top,
+    /// 1 bottom), clamped to `[0, 1)`: rows below it see the floor, rows
+    /// above it never do. A camera pitched down further than half its
+    /// vertical field of view sees floor in every row (0).
+    pub fn horizon_fraction(&self) -> f32 {
+        let v = self.cy - self.fy * libm::tanf(self.pitch_down - Self::MIN_DEPRESSION);
+        let f = v / self.image_height;
+        if f.is_finite() {
+            f.clamp(0.0, 0.999)
+        } else {
+            0.0
+        }
     }
 
     /// Horizontal distance from the wheel axle to where the image row at

@@ -88,6 +88,35 @@ impl SurfaceConfig {
             fallback: SurfaceConfig::conservative_params(),
         }
     }
+
+    /// Defaults for `wheel` and `classes`, with the label map read through
+    /// the geometry of the camera that took it: the ground region starts at
+    /// the camera's horizon ([`GroundCamera::horizon_fraction`]) instead of a
+    /// fixed fraction, so no row that sees the floor is ignored, and the ahead
+    /// band covers all of the ground above the near band. A camera pitched
+    /// steeply down sees only a short stretch of floor; between two maps the
+    /// robot may travel further than a fixed middle band is deep, and a narrow
+    /// threshold strip would then go from unseen straight to under the
+    /// camera's nearest row without ever being announced.
+    pub fn for_camera(wheel: WheelType, classes: ClassConfig, camera: GroundCamera) -> Self {
+        let defaults = SegmentationConfig::default();
+        let near = defaults.near_band();
+        let segmentation = SegmentationConfig::new(
+            camera.horizon_fraction(),
+            defaults.bottom_gain(),
+            near,
+            1.0 - near,
+            defaults.min_coverage(),
+            defaults.min_change_fraction(),
+        )
+        .map(|s| s.with_min_strip_fraction(defaults.min_strip_fraction()))
+        .unwrap_or(defaults);
+        SurfaceConfig {
+            segmentation,
+            camera,
+            ..SurfaceConfig::new(wheel, classes)
+        }
+    }
 }
 
 /// Why a segmentation map did not update the floor.

@@ -8,9 +8,10 @@
 //!   ([`GroundView::present_mix`]: the kinds in the near band) and its
 //!   anticipation of a floor ahead; a map without ground ([`NoSurface`]) keeps
 //!   the last floor, counted;
-//! - a forward camera cannot see under the robot: once an announced floor is
-//!   the nearest one in view but its arrival time has not come, the floor
-//!   underfoot and the announced arrival are kept; an announced floor that
+//! - a forward camera cannot see under the robot: once an announced floor (or
+//!   any other new floor, beyond it) is the nearest one in view but the
+//!   announced arrival time has not come, the floor underfoot and the
+//!   announced arrival are kept; an announced floor that
 //!   leaves the view before its arrival (a narrow strip passing below the
 //!   camera's nearest floor) stays announced until it arrives, unless a new
 //!   floor is announced;
@@ -252,19 +253,25 @@ impl SurfaceTracker {
         // A passed anticipated arrival is a crossing, kept before it is replaced.
         self.last_crossing = self.last_crossing(t);
         let new_kind = view.current_kind();
-        self.last_map = Some(t);
+        let previous_map = self.last_map.replace(t);
         if let Some(p) = self.anticipation
-            && p.kind == new_kind
             && p.arrival.is_some_and(|a| a > t)
+            && (p.kind == new_kind || self.kind.is_some_and(|k| k != new_kind))
         {
-            // The announced floor is now the nearest one in view, but the
-            // wheels have not reached it yet: keep the floor underfoot and the
-            // announced arrival.
+            // The wheels have not reached the announced boundary yet, and the
+            // nearest floor in view is the announced one, or another new floor
+            // beyond it (a strip passing below the view, the next room's floor
+            // behind it): all of it lies ahead. Keep the floor underfoot and
+            // the announced arrival.
             return Ok(());
         }
-        let arrived_as_announced = self
-            .anticipation
-            .is_some_and(|p| p.kind == new_kind && p.arrival.is_some_and(|a| a <= t));
+        // An announced boundary passed since the previous map explains a new
+        // floor (the strip's, or the one behind a strip) without a crossing
+        // of its own at the map's time.
+        let arrived_as_announced = self.anticipation.is_some_and(|p| {
+            p.arrival
+                .is_some_and(|a| a <= t && previous_map.is_none_or(|m| a > m))
+        });
         if self.kind.is_some_and(|old| old != new_kind) && !arrived_as_announced {
             self.last_crossing = Some(t);
         }

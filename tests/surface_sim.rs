@@ -1,0 +1,210 @@
+//! The office scenario end to end: threshold strips between rooms are
+//! explained by the surface model, the cable on the wood is not; a fixed
+//! jolt threshold (no surface model) cannot tell them apart.
+
+use host_sim::asl::read_dataset;
+use host_sim::replay::{ReplayOptions, replay_with};
+use host_sim::simulate::run_simulate;
+use serde_json::Value;
+use std::path::PathBuf;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("traction-surface-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `(t [s], kind, surface)` of every jolt event in a report.
+fn events(report: &Value) -> Vec<(f64, String, String)> {
+    report["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["t"].as_u64().unwrap() as f64 * 1e-9,
+                e["kind"].as_str().unwrap().to_string(),
+                e["surface"].as_str().unwrap_or("none").to_string(),
+            )
+        })
+        .collect()
+}
+
+fn obstacles(events: &[(f64, String, String)]) -> Vec<(f64, String)> {
+    events
+        .iter()
+        .filter(|(_, k, _)| k == "SuspectedObstacle")
+        .map(|(t, _, s)| (*t, s.clone()))
+        .collect()
+}
+
+/// The robot drives +x at 0.3 m/s through the office; its axle is on the
+/// cable (x = 2 m) near 7.8 s and on the strips (x = 4 m, 8 m) near 14.8 s
+/// and 28.1 s.
+#[test]
+fn strips_are_explained_and_the_cable_is_an_obstacle() {
+    let root = tmp("office");
+    let adaptive = run_simulate("office", 1, &root, false).unwrap();
+    let ev = events(&adaptive.report);
+    println!("adaptive: {ev:?}");
+    let obs = obstacles(&ev);
+    assert_eq!(obs.len(), 1, "exactly one obstacle, the cable: {ev:?}");
+    let (t, surface) = &obs[0];
+    assert!(
+        (t - 7.8).abs() < 0.5,
+        "the cable is crossed near 7.8 s: {t}"
+    );
+    assert_eq!(surface, "wood");
+    for strip in [14.8, 28.1] {
+        let near: Vec<_> = ev
+            .iter()
+            .filter(|(t, _, _)| (t - strip).abs() < 1.0)
+            .collect();
+        assert!(
+            near.iter().all(|(_, k, _)| k != "SuspectedObstacle"),
+            "no obstacle at the strip near {strip} s: {near:?}"
+        );
+        // Explained by the strip: as a strip at a floor boundary, or as the
+        // noise of the strip's own floor while the wheels are on it.
+        assert!(
+            !near.is_empty()
+                && near
+                    .iter()
+                    .all(|(_, k, s)| k == "ThresholdStrip" || s == "threshold"),
+            "the strip near {strip} s is recognised: {near:?}"
+        );
+    }
+    // Carpet stays underfoot until the wheels reach the carpet -> tile strip.
+    let timeline = adaptive.report["surface_timeline"].as_array().unwrap();
+    for s in timeline {
+        let t = s["t"].as_u64().unwrap() as f64 * 1e-9;
+        if (26.0..=27.6).contains(&t) {
+            assert_eq!(s["surface"], "carpet", "at {t} s: {s}");
+        }
+    }
+
+    // The same log with one fixed jolt threshold: the strips (and carpet) are
+    // taken for obstacles as well.
+    let ds = read_dataset(&root.join("dataset")).unwrap();
+    let fixed = replay_with(
+        &ds,
+        &root.join("dataset"),
+        false,
+        ReplayOptions {
+            surface_model: false,
+        },
+    )
+    .unwrap();
+    let fev = events(&fixed.report);
+    println!("fixed: {fev:?}");
+    let fobs = obstacles(&fev);
+    assert!(
+        fobs.iter().any(|(t, _)| (t - 7.8).abs() < 0.5),
+        "fixed threshold still sees the cable: {fev:?}"
+    );
+    for strip in [14.8, 28.1] {
+        assert!(
+            fobs.iter().any(|(t, _)| (t - strip).abs() < 0.5),
+            "fixed threshold takes the strip near {strip} s for an obstacle: {fev:?}"
+        );
+    }
+    assert!(fobs.len() > obs.len());
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The surface model alone, on the maps the forward camera takes at 2 Hz
+/// while the axle approaches the carpet -> tile strip (x = 8 m, 4 cm wide) at
+/// 0.3 m/s, read through the camera's geometry from its mount: the strip is
+/// announced before it passes below the view, carpet stays underfoot until
+/// the wheels reach it, and the crossing is placed at the strip, not at the
+/// first map that shows tile.
+#[test]
+fn carpet_to_tile_strip_is_announced_from_the_labels() {
+    use host_sim::sim::motion::TruthStep;
+    use host_sim::sim::render::{Camera, render_labels};
+    use host_sim::sim::world::{SEG_GROUND, World};
+    use traction::ego_ekf::surface::{
+        ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, SurfaceModel, WheelType,
+    };
+    use traction::vslam_core::Timestamp;
+    use traction::vslam_core::geometry::Extrinsics;
+    use traction::vslam_core::image::LabelView;
+
+    let world = World::office();
+    let cam = Camera::forward_segmentation();
+    let mount = Extrinsics::from_row_major(&cam.t_bs_matrix()).unwrap();
+    let [_, fv, _, cv] = cam.intrinsics;
+    let ground =
+        GroundCamera::from_mount(fv as f32, cv as f32, cam.resolution[1] as f32, &mount).unwrap();
+    let classes = ClassConfig::from_lists(
+        &[
+            (2, SurfaceKind::Wood),
+            (3, SurfaceKind::Carpet),
+            (4, SurfaceKind::Tile),
+            (6, SurfaceKind::Threshold),
+        ],
+        &SEG_GROUND,
+    );
+    let mut model = SurfaceModel::new(SurfaceConfig::for_camera(
+        WheelType::SoftTreaded,
+        classes,
+        ground,
+    ));
+    let speed = 0.3;
+    // The strip's near edge (x = 7.98 m) reaches the axle at 28.0 s.
+    let x_at = |t: f64| 7.98 - speed * (28.0 - t);
+    let strip_arrival = 28.0;
+    let mut announced = None;
+    for k in 0..10 {
+        let t = 25.5 + 0.5 * k as f64;
+        let step = TruthStep {
+            t_ns: (t * 1e9) as u64,
+            p: [x_at(t), 0.0, 0.0],
+            yaw: 0.0,
+            v: speed,
+            w: 0.0,
+            vel: [speed, 0.0, 0.0],
+            acc: [0.0; 3],
+            surface: None,
+            wheel_angle: [0.0; 2],
+            episode: None,
+        };
+        let l = render_labels(&world, &cam, &step);
+        let view = LabelView::new(&l.data, l.width, l.height, l.width).unwrap();
+        let ts = Timestamp(step.t_ns);
+        let g = model.on_segmentation(ts, &view, speed as f32).unwrap();
+        let state = model.state_at(ts);
+        println!(
+            "t {t:.1} x {:.2}: upcoming {:?}, underfoot {:?}, next {:?}, last {:?}",
+            x_at(t),
+            g.upcoming.map(|u| u.kind),
+            state.dominant(),
+            model.tracker().next_crossing(ts),
+            model.tracker().last_crossing(ts)
+        );
+        if t < strip_arrival {
+            assert_eq!(state.dominant(), Some(SurfaceKind::Carpet), "at {t} s");
+            assert_eq!(model.tracker().last_crossing(ts), None, "at {t} s");
+        } else {
+            let crossing = model.tracker().last_crossing(ts).unwrap().0 as f64 * 1e-9;
+            assert!(
+                (crossing - strip_arrival).abs() < 0.1,
+                "crossing at {crossing} s, strip at {strip_arrival} s"
+            );
+            assert_eq!(state.dominant(), Some(SurfaceKind::Tile), "at {t} s");
+        }
+        if t <= 27.0
+            && let Some(a) = state.anticipation
+        {
+            announced = Some(a);
+        }
+    }
+    let a = announced.expect("the strip is announced while in view");
+    assert_eq!(a.kind, SurfaceKind::Threshold);
+    let arrival = a.arrival.unwrap().0 as f64 * 1e-9;
+    assert!(
+        (arrival - strip_arrival).abs() < 0.1,
+        "announced for {arrival} s, reached at {strip_arrival} s"
+    );
+}
