@@ -169,7 +169,9 @@ pub struct JoltConfig {
 impl Default for JoltConfig {
     /// 60 ms window, 150 ms refractory, onset at 1.5 m/s^2 or 60 % of what the
     /// floor explains (the larger), re-arm below half the onset, a jolt within
-    /// 0.3 s or 10 cm of a floor boundary may be a threshold strip, samples
+    /// 0.5 s or 15 cm of a floor boundary may be a threshold strip (the strip,
+    /// both edges of the wheel run over it and the error of the predicted
+    /// arrival), samples
     /// more than 50 ms apart are a gap.
     fn default() -> Self {
         JoltConfig {
@@ -178,8 +180,8 @@ impl Default for JoltConfig {
             onset_level: 1.5,
             onset_fraction: 0.6,
             rearm_fraction: 0.5,
-            crossing_time_ns: 300_000_000,
-            crossing_distance: 0.10,
+            crossing_time_ns: 500_000_000,
+            crossing_distance: 0.15,
             max_step_ns: 50_000_000,
         }
     }

@@ -176,10 +176,10 @@ fn jolts_near_a_boundary_crossing_are_threshold_strips() {
         cfg.classify(at(10.1), 12.0, &ctx),
         JoltKind::SuspectedObstacle
     );
-    // Too far in time (0.3 s) and distance (0.1 m at 0.2 m/s = 0.5 s).
-    assert_eq!(cfg.classify(at(10.45), 6.0, &ctx), JoltKind::ThresholdStrip);
+    // Too far in time (0.5 s) and distance (0.15 m at 0.2 m/s = 0.75 s).
+    assert_eq!(cfg.classify(at(10.7), 6.0, &ctx), JoltKind::ThresholdStrip);
     assert_eq!(
-        cfg.classify(at(10.6), 6.0, &ctx),
+        cfg.classify(at(10.8), 6.0, &ctx),
         JoltKind::SuspectedObstacle
     );
     // Without boundaries nothing is a strip.
