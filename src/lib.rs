@@ -5,6 +5,15 @@
 //! firmware. This root crate re-exports the member crates; see `README.md`
 //! for the crate map.
 #![no_std]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub use ego_ekf;
 pub use flow_sensor;
