@@ -176,6 +176,12 @@ pub struct FlowConfig {
     pub gate: f32,
     /// Largest step between flow reports, ns.
     pub max_dt_ns: u64,
+    /// Consecutive gated reports of valid quality after which the filter
+    /// stops trusting its own velocity and resets it to the flow's (0: never).
+    pub reset_after_gated: u16,
+    /// Fastest flow-measured speed, m/s, the velocity may be reset to; a
+    /// report claiming more is no ground truth to restart from.
+    pub reset_max_speed: f32,
 }
 
 impl FlowConfig {
@@ -189,6 +195,8 @@ impl FlowConfig {
             shutter_good: 0x0400,
             gate: 9.21,
             max_dt_ns: 100_000_000,
+            reset_after_gated: 25,
+            reset_max_speed: 2.0,
         }
     }
 }

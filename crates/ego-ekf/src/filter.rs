@@ -448,6 +448,11 @@ impl EgoEkf {
         self.wheel.counts()
     }
 
+    /// Velocity resets to the flow after runs of gated flow reports.
+    pub fn flow_resets(&self) -> u32 {
+        self.flow.resets()
+    }
+
     /// Flow reports fused, gated and rejected by reason.
     pub fn flow_counts(&self) -> &SampleCounts {
         self.flow.counts()

@@ -456,6 +456,7 @@ pub fn replay_with(
         "events": jolts,
         "final": {
             "wheel_radii": ekf.wheel_radii(),
+            "flow_velocity_resets": ekf.flow_resets(),
             "wheel_radius_std": ekf.wheel_radius_std(),
             "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
             "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],

@@ -1,13 +1,21 @@
 //! When to fuse a flow report: time checks (the first report only opens the
 //! interval), the datasheet's validity rule ([`Reject::LowQuality`]),
 //! saturated counts ([`Reject::Saturated`]), the chi-square gate, counters.
+//!
+//! A filter whose velocity has run away gates every flow and wheel
+//! measurement from then on and never recovers (a lockout). As PX4 EKF2
+//! resets its velocity to optical flow after a fusion timeout, a run of
+//! [`FlowConfig::reset_after_gated`] consecutive gated reports of valid
+//! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
+//! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
+//! reported ([`FlowFused::reset`]).
 
 use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
 use vslam_core::{Reject, SampleClock, SampleCounts};
 
 use crate::config::FlowConfig;
-use crate::flow::model::{flow_measurement, flow_std, flow_velocity};
+use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::update::gated_update;
 
@@ -20,6 +28,8 @@ pub struct FlowFused {
     pub std: f32,
     /// Normalised innovation squared (2 DOF).
     pub nis: f32,
+    /// The velocity was reset to this report instead of updated.
+    pub reset: bool,
 }
 
 /// The flow sensor's fusion status.
@@ -27,6 +37,8 @@ pub struct FlowFused {
 pub struct FlowFusion {
     clock: SampleClock,
     counts: SampleCounts,
+    gated_run: u16,
+    resets: u32,
 }
 
 impl FlowFusion {
@@ -35,12 +47,19 @@ impl FlowFusion {
         FlowFusion {
             clock: SampleClock::new(max_dt_ns),
             counts: SampleCounts::new(),
+            gated_run: 0,
+            resets: 0,
         }
     }
 
     /// Samples fused, gated and rejected by reason.
     pub fn counts(&self) -> &SampleCounts {
         &self.counts
+    }
+
+    /// Velocity resets after runs of gated reports.
+    pub fn resets(&self) -> u32 {
+        self.resets
     }
 
     /// Counts a sample the filter refused before it reached the maths.
@@ -89,11 +108,36 @@ impl FlowFusion {
         }
         let std = flow_std(sample, config, z.norm());
         let m = flow_measurement(x, gyro, &z, std);
-        let report = gated_update(x, p, &m, Some(config.gate))?;
-        Ok(FlowFused {
-            velocity: z,
-            std,
-            nis: report.nis,
-        })
+        match gated_update(x, p, &m, Some(config.gate)) {
+            Ok(report) => {
+                self.gated_run = 0;
+                Ok(FlowFused {
+                    velocity: z,
+                    std,
+                    nis: report.nis,
+                    reset: false,
+                })
+            }
+            Err(Reject::Gated) => {
+                self.gated_run = self.gated_run.saturating_add(1);
+                let plausible = z.norm() <= config.reset_max_speed;
+                if config.reset_after_gated == 0
+                    || self.gated_run < config.reset_after_gated
+                    || !plausible
+                {
+                    return Err(Reject::Gated);
+                }
+                self.gated_run = 0;
+                self.resets = self.resets.saturating_add(1);
+                reset_velocity(x, p, gyro, &z, std);
+                Ok(FlowFused {
+                    velocity: z,
+                    std,
+                    nis: f32::NAN,
+                    reset: true,
+                })
+            }
+            Err(r) => Err(r),
+        }
     }
 }
