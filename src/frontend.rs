@@ -9,7 +9,7 @@
 //! every frame, so tracks never drift over more than one frame.
 //!
 //! Memory is the caller's: [`FrontEndBuffers`] borrows one frame copy, two
-//! pyramid storages and the corner detector's scratch, sized by
+//! pyramid storages (swapped each frame, so every pyramid is built once) and the corner detector's scratch, sized by
 //! [`FrontEndBuffers::sizes`], so firmware can place them in statics and a
 //! host in heap vectors. Nothing here allocates.
 
@@ -156,6 +156,10 @@ pub struct FrontEnd<'b> {
     points: HVec<Vec2, MAX_FEATURES>,
     counts: SampleCounts,
     last: Option<FrameStats>,
+    /// `previous_pyramid` holds the levels of `previous_frame`.
+    previous_pyramid_ready: bool,
+    /// `current_pyramid` holds the levels of the frame being processed.
+    current_pyramid_built: bool,
 }
 
 impl<'b> FrontEnd<'b> {
@@ -194,6 +198,8 @@ impl<'b> FrontEnd<'b> {
             points: HVec::new(),
             counts: SampleCounts::new(),
             last: None,
+            previous_pyramid_ready: false,
+            current_pyramid_built: false,
         })
     }
 
@@ -215,6 +221,7 @@ impl<'b> FrontEnd<'b> {
         t: Timestamp,
         image: &ImageView<'_>,
     ) -> Result<Option<CameraMotion>, Reject> {
+        self.current_pyramid_built = false;
         let outcome = self.process_inner(t, image);
         match outcome {
             Ok(Some(_)) => self.counts.fused_one(),
@@ -267,10 +274,17 @@ impl<'b> FrontEnd<'b> {
         {
             let prev_view = ImageView::packed(self.buffers.previous_frame, w, h)
                 .map_err(|_| Reject::OutOfRange)?;
-            let prev = Pyramid::build_in(&prev_view, levels, self.buffers.previous_pyramid)
-                .map_err(|_| Reject::OutOfRange)?;
+            // The previous frame's levels were built when it was the current
+            // frame; they are rebuilt only when that did not happen.
+            let prev = if self.previous_pyramid_ready {
+                Pyramid::from_storage(&prev_view, levels, self.buffers.previous_pyramid)
+            } else {
+                Pyramid::build_in(&prev_view, levels, self.buffers.previous_pyramid)
+            }
+            .map_err(|_| Reject::OutOfRange)?;
             let next = Pyramid::build_in(image, levels, self.buffers.current_pyramid)
                 .map_err(|_| Reject::OutOfRange)?;
+            self.current_pyramid_built = true;
             self.tracker
                 .track(&prev, &next, &self.points, results)
                 .map_err(|_| Reject::Degenerate)?;
@@ -350,6 +364,14 @@ impl<'b> FrontEnd<'b> {
 
     /// Keeps `image` as the previous frame and finds the corners to track from it.
     fn remember(&mut self, image: &ImageView<'_>) {
+        // This frame's levels become the previous frame's: swap the storages.
+        if self.current_pyramid_built {
+            core::mem::swap(
+                &mut self.buffers.previous_pyramid,
+                &mut self.buffers.current_pyramid,
+            );
+        }
+        self.previous_pyramid_ready = self.current_pyramid_built;
         let w = self.config.width;
         for (y, dst) in self
             .buffers

@@ -201,6 +201,54 @@ impl<'a> Pyramid<'a> {
         })
     }
 
+    /// The pyramid of `image` whose coarser levels [`Pyramid::build_in`]
+    /// already wrote into `storage` for this very image: views only, nothing
+    /// recomputed (a tracker keeps the previous frame's pyramid this way).
+    /// Checks sizes like `build_in`; whether `storage` really holds this
+    /// image's levels is the caller's to know.
+    pub fn from_storage(
+        image: &ImageView<'a>,
+        levels: usize,
+        storage: &'a [u8],
+    ) -> Result<Self, PyramidError> {
+        if levels == 0 {
+            return Err(PyramidError::NoLevels);
+        }
+        let max = Self::max_levels(image.width(), image.height());
+        if levels > max {
+            return Err(PyramidError::TooManyLevels {
+                requested: levels,
+                max,
+            });
+        }
+        let needed = storage_bytes(image.width(), image.height(), levels);
+        if storage.len() < needed {
+            return Err(PyramidError::StorageTooSmall {
+                needed,
+                capacity: storage.len(),
+            });
+        }
+        let mut all = [*image; MAX_LEVELS];
+        let mut rest = storage;
+        let (mut w, mut h) = (image.width(), image.height());
+        for slot in all.iter_mut().take(levels).skip(1) {
+            (w, h) = (w.div_ceil(2), h.div_ceil(2));
+            let len = w.checked_mul(h).ok_or(ImageError::TooLarge)?;
+            let (cur, tail) = rest
+                .split_at_checked(len)
+                .ok_or(PyramidError::StorageTooSmall {
+                    needed,
+                    capacity: len,
+                })?;
+            *slot = ImageView::packed(cur, w, h)?;
+            rest = tail;
+        }
+        Ok(Pyramid {
+            levels: all,
+            count: levels,
+        })
+    }
+
     /// How many levels, including level 0 (at least 1).
     pub fn levels(&self) -> usize {
         self.count
@@ -295,6 +343,42 @@ pub fn downsample_into(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn from_storage_gives_the_levels_build_in_wrote() {
+        let mut img = [0u8; 37 * 23];
+        for (i, p) in img.iter_mut().enumerate() {
+            *p = (i * 7 % 251) as u8;
+        }
+        let view = ImageView::packed(&img, 37, 23).unwrap();
+        // Size and a position-weighted checksum of every level.
+        fn digest(p: &Pyramid<'_>) -> [(usize, usize, u64); 3] {
+            let mut out = [(0, 0, 0); 3];
+            for (l, o) in out.iter_mut().enumerate() {
+                let v = p.level(l).unwrap();
+                let mut sum = 0u64;
+                for y in 0..v.height() {
+                    for (x, px) in v.row(y).unwrap().iter().enumerate() {
+                        sum += (*px as u64) * ((y * v.width() + x) as u64 + 1);
+                    }
+                }
+                *o = (v.width(), v.height(), sum);
+            }
+            out
+        }
+        let mut storage = [0u8; storage_bytes(37, 23, 3)];
+        let built = digest(&Pyramid::build_in(&view, 3, &mut storage).unwrap());
+        let again = digest(&Pyramid::from_storage(&view, 3, &storage).unwrap());
+        assert_eq!(built, again);
+        assert_eq!(built[2].0, 10);
+        assert_eq!(
+            Pyramid::from_storage(&view, 3, &storage[..10]).err(),
+            Some(PyramidError::StorageTooSmall {
+                needed: storage_bytes(37, 23, 3),
+                capacity: 10
+            })
+        );
+    }
+
     use super::*;
 
     /// The textbook definition, pixel by pixel, to check the fast path against.
