@@ -3,6 +3,11 @@
 //! Goals (issue): RANSAC on 100 correspondences with 20 % outliers and 1 px
 //! noise <= 100 us (OpenCV `findHomography` ~200 us on the same data);
 //! decomposition <= 5 us. Inputs are seeded and made outside the timer.
+//!
+//! The scene, the true inlier set and ours are written to
+//! `target/peer/homography_scene.txt` so that `benches/peer/opencv_homography.py`
+//! runs OpenCV on exactly the same data (`benches/peer/run_homography_peer.sh`
+//! runs both and prints the side-by-side table).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix3, Rotation3, Vector2, Vector3};
@@ -68,6 +73,37 @@ fn scene() -> Scene {
     }
 }
 
+/// Writes the scene for the OpenCV peer: `K fx fy cx cy`, `H` (row-major),
+/// `RANSAC threshold`, then one line per match: `x1 y1 x2 y2 true_inlier our_inlier`.
+fn write_peer_scene(s: &Scene, ours: &[bool], threshold: f32) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/peer");
+    std::fs::create_dir_all(&dir)?;
+    let k = s.k.matrix();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "K {} {} {} {}",
+        k[(0, 0)],
+        k[(1, 1)],
+        k[(0, 2)],
+        k[(1, 2)]
+    );
+    let h: Vec<String> = (0..9)
+        .map(|i| format!("{:e}", s.h[(i / 3, i % 3)]))
+        .collect();
+    let _ = writeln!(out, "H {}", h.join(" "));
+    let _ = writeln!(out, "threshold {threshold}");
+    for (((a, b), t), o) in s.points1.iter().zip(&s.points2).zip(&s.inliers).zip(ours) {
+        let _ = writeln!(
+            out,
+            "{} {} {} {} {} {}",
+            a.x, a.y, b.x, b.y, *t as u8, *o as u8
+        );
+    }
+    std::fs::write(dir.join("homography_scene.txt"), out)
+}
+
 fn bench(c: &mut Criterion) {
     let s = scene();
     let mut ransac = HomographyRansac::<128>::new(RansacParams {
@@ -86,6 +122,14 @@ fn bench(c: &mut Criterion) {
         report.rms_error_px,
         report.refine_iterations
     );
+    let same = mask.iter().zip(&s.inliers).filter(|(a, b)| a == b).count();
+    eprintln!(
+        "ransac: inlier set equals the true one on {same} of {} matches",
+        mask.len()
+    );
+    if let Err(e) = write_peer_scene(&s, &mask, 3.0) {
+        eprintln!("could not write the peer scene: {e}");
+    }
     c.bench_function("homography/ransac_100_20pct_outliers", |b| {
         b.iter(|| {
             ransac
