@@ -6,7 +6,10 @@
 //! homography on the tracks, its decomposition with the camera intrinsics,
 //! and the selection of the candidate whose plane normal matches the ceiling
 //! (the body's up axis seen from the camera). Corners are found afresh on
-//! every frame, so tracks never drift over more than one frame.
+//! every frame, so tracks never drift over more than one frame. A frame with
+//! too few corners of its own whose motion fails (black, saturated, uniform,
+//! blurred) is refused and the reference kept, so the next good frame is
+//! measured against the last good one (at most [`MAX_BRIDGED_FRAMES`] in a row).
 //!
 //! Memory is the caller's: [`FrontEndBuffers`] borrows one frame copy, two
 //! pyramid storages (swapped each frame, so every pyramid is built once) and the corner detector's scratch, sized by
@@ -26,6 +29,11 @@ use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
 /// Most features tracked between two frames.
 pub const MAX_FEATURES: usize = 200;
+
+/// Most consecutive unusable frames (too few corners of their own, and no
+/// motion to the reference) bridged by keeping the reference frame: a black,
+/// saturated, uniform or blurred frame then costs one frame pair, not two.
+pub const MAX_BRIDGED_FRAMES: u8 = 2;
 
 /// Settings of the camera path.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -160,6 +168,10 @@ pub struct FrontEnd<'b> {
     previous_pyramid_ready: bool,
     /// `current_pyramid` holds the levels of the frame being processed.
     current_pyramid_built: bool,
+    /// When the reference frame (`previous_frame`) was taken.
+    reference_t: Option<Timestamp>,
+    /// Unusable frames bridged since the reference was taken.
+    bridged: u8,
 }
 
 impl<'b> FrontEnd<'b> {
@@ -200,6 +212,8 @@ impl<'b> FrontEnd<'b> {
             last: None,
             previous_pyramid_ready: false,
             current_pyramid_built: false,
+            reference_t: None,
+            bridged: 0,
         })
     }
 
@@ -239,22 +253,55 @@ impl<'b> FrontEnd<'b> {
         if image.width() != self.config.width || image.height() != self.config.height {
             return Err(Reject::OutOfRange);
         }
-        let previous_t = self.clock.last();
         let first = match self.clock.accept(t) {
             Ok(dt) => dt.is_none(),
             Err(Reject::Gap) => {
                 // Too long since the last frame: start over from this one.
-                self.remember(image);
+                let mut corners = [Corner::default(); MAX_FEATURES];
+                let n = self.corners_of(image, &mut corners);
+                self.remember(t, image, corners.get(..n).unwrap_or(&[]));
                 return Err(Reject::Gap);
             }
             Err(r) => return Err(r),
         };
-        let motion = match (first, previous_t) {
+        let motion = match (first, self.reference_t) {
             (false, Some(t0)) => self.motion_since(t0, t, image),
             _ => Ok(None),
         };
-        self.remember(image);
+        let mut corners = [Corner::default(); MAX_FEATURES];
+        let n = self.corners_of(image, &mut corners);
+        if motion.is_err() && self.bridges(t, n) {
+            // An unusable frame: the reference stays, and the next good frame
+            // is measured against it.
+            self.bridged += 1;
+            return motion;
+        }
+        self.remember(t, image, corners.get(..n).unwrap_or(&[]));
         motion
+    }
+
+    /// Whether a frame at `t` with `corners` corners of its own, whose motion
+    /// from the reference failed, is bridged (the reference kept).
+    fn bridges(&self, t: Timestamp, corners: usize) -> bool {
+        let reference_fresh = self
+            .reference_t
+            .and_then(|t0| t.nanos_since(t0))
+            .is_some_and(|age| age <= self.config.max_gap_ns);
+        corners < self.config.min_tracks
+            && self.points.len() >= self.config.min_tracks
+            && self.bridged < MAX_BRIDGED_FRAMES
+            && reference_fresh
+    }
+
+    /// Corners of `image` into `out`, strongest first; 0 when it has none.
+    fn corners_of(&mut self, image: &ImageView<'_>, out: &mut [Corner]) -> usize {
+        detect_corners(
+            image,
+            &self.config.corners,
+            self.buffers.corner_scratch,
+            out,
+        )
+        .unwrap_or(0)
     }
 
     fn motion_since(
@@ -362,8 +409,10 @@ impl<'b> FrontEnd<'b> {
         .map_err(|_| Reject::Degenerate)
     }
 
-    /// Keeps `image` as the previous frame and finds the corners to track from it.
-    fn remember(&mut self, image: &ImageView<'_>) {
+    /// Keeps `image`, taken at `t`, as the reference frame with its `corners`.
+    fn remember(&mut self, t: Timestamp, image: &ImageView<'_>, corners: &[Corner]) {
+        self.reference_t = Some(t);
+        self.bridged = 0;
         // This frame's levels become the previous frame's: swap the storages.
         if self.current_pyramid_built {
             core::mem::swap(
@@ -385,16 +434,8 @@ impl<'b> FrontEnd<'b> {
             }
         }
         self.points.clear();
-        let mut corners = [Corner::default(); MAX_FEATURES];
-        if let Ok(n) = detect_corners(
-            image,
-            &self.config.corners,
-            self.buffers.corner_scratch,
-            &mut corners,
-        ) {
-            for c in corners.iter().take(n) {
-                let _ = self.points.push(c.position());
-            }
+        for c in corners {
+            let _ = self.points.push(c.position());
         }
     }
 }

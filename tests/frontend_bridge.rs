@@ -1,0 +1,152 @@
+//! The camera path bridges unusable frames: a black, saturated or uniform
+//! frame between two good ones costs one frame pair, not two, because the
+//! reference frame is kept and the next good frame is measured against it.
+//! Frames are 320x240 crops of a real photograph (`data/images/gravel.png`,
+//! CC0), shifted by a few pixels between frames.
+
+use host_sim::pngio::load_gray;
+use std::path::Path;
+use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, MAX_BRIDGED_FRAMES};
+use vslam_core::decompose::PinholeIntrinsics;
+use vslam_core::geometry::Extrinsics;
+use vslam_core::image::ImageView;
+use vslam_core::{Reject, Timestamp};
+
+const W: usize = 320;
+const H: usize = 240;
+
+fn crop(dx: usize, dy: usize) -> Vec<u8> {
+    let img = load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/images/gravel.png"))
+        .expect("the test photograph");
+    assert!(img.width >= W + 40 && img.height >= H + 40);
+    let mut out = Vec::with_capacity(W * H);
+    for y in 0..H {
+        let row = (y + 20 + dy) * img.width + 20 + dx;
+        out.extend_from_slice(&img.data[row..row + W]);
+    }
+    out
+}
+
+struct Buffers {
+    frame: Vec<u8>,
+    pyr_a: Vec<u8>,
+    pyr_b: Vec<u8>,
+    scratch: Vec<f32>,
+}
+
+fn config() -> FrontEndConfig {
+    let k = PinholeIntrinsics::new(260.0, 260.0, 160.0, 120.0).unwrap();
+    FrontEndConfig::new(W, H, k, Extrinsics::identity())
+}
+
+fn buffers(c: &FrontEndConfig) -> Buffers {
+    let [f, p, q, s] = FrontEndBuffers::sizes(W, H, c.levels, c.corners.block_size);
+    Buffers {
+        frame: vec![0; f],
+        pyr_a: vec![0; p],
+        pyr_b: vec![0; q],
+        scratch: vec![0.0; s],
+    }
+}
+
+fn ms(t: u64) -> Timestamp {
+    Timestamp(t * 1_000_000)
+}
+
+/// Runs `frames` (time in ms, pixels) and returns every outcome.
+fn run(frames: &[(u64, Vec<u8>)]) -> Vec<Result<Option<(Timestamp, Timestamp)>, Reject>> {
+    let c = config();
+    let mut b = buffers(&c);
+    let mut fe = FrontEnd::new(
+        c,
+        FrontEndBuffers {
+            previous_frame: &mut b.frame,
+            previous_pyramid: &mut b.pyr_a,
+            current_pyramid: &mut b.pyr_b,
+            corner_scratch: &mut b.scratch,
+        },
+    )
+    .unwrap();
+    let out: Vec<_> = frames
+        .iter()
+        .map(|(t, px)| {
+            let view = ImageView::packed(px, W, H).unwrap();
+            fe.process(ms(*t), &view)
+                .map(|m| m.map(|m| (m.t0(), m.t1())))
+        })
+        .collect();
+    let fused = out.iter().filter(|o| matches!(o, Ok(Some(_)))).count() as u32;
+    assert_eq!(fe.counts().fused(), fused, "every frame pair counted once");
+    out
+}
+
+#[test]
+fn one_black_frame_costs_one_pair() {
+    let frames = vec![
+        (0, crop(0, 0)),
+        (100, crop(2, 1)),
+        (200, vec![0u8; W * H]),
+        (300, crop(6, 3)),
+        (400, crop(8, 4)),
+    ];
+    let out = run(&frames);
+    assert_eq!(out[0], Ok(None));
+    assert_eq!(out[1], Ok(Some((ms(0), ms(100)))));
+    assert_eq!(out[2], Err(Reject::LowQuality));
+    // Measured against the frame before the black one.
+    assert_eq!(out[3], Ok(Some((ms(100), ms(300)))));
+    assert_eq!(out[4], Ok(Some((ms(300), ms(400)))));
+}
+
+#[test]
+fn saturated_and_uniform_frames_are_bridged_too() {
+    let frames = vec![
+        (0, crop(0, 0)),
+        (100, vec![255u8; W * H]),
+        (200, vec![128u8; W * H]),
+        (300, crop(5, 2)),
+    ];
+    let out = run(&frames);
+    assert_eq!(out[1], Err(Reject::LowQuality));
+    assert_eq!(out[2], Err(Reject::LowQuality));
+    assert_eq!(out[3], Ok(Some((ms(0), ms(300)))));
+}
+
+#[test]
+fn a_long_run_of_bad_frames_starts_over() {
+    let mut frames = vec![(0, crop(0, 0))];
+    let bad = u64::from(MAX_BRIDGED_FRAMES) + 1;
+    for i in 1..=bad {
+        frames.push((i * 100, vec![0u8; W * H]));
+    }
+    frames.push(((bad + 1) * 100, crop(4, 2)));
+    frames.push(((bad + 2) * 100, crop(6, 3)));
+    let out = run(&frames);
+    for o in &out[1..=bad as usize] {
+        assert_eq!(*o, Err(Reject::LowQuality));
+    }
+    // The last bad frame became the reference: nothing to track from it.
+    assert_eq!(out[bad as usize + 1], Err(Reject::LowQuality));
+    assert_eq!(
+        out[bad as usize + 2],
+        Ok(Some((ms((bad + 1) * 100), ms((bad + 2) * 100))))
+    );
+}
+
+#[test]
+fn a_good_frame_that_cannot_be_tracked_becomes_the_reference() {
+    // A different part of the photograph: plenty of corners, no overlap.
+    let far = {
+        let img = load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/images/brick.png"))
+            .unwrap();
+        let mut out = Vec::with_capacity(W * H);
+        for y in 0..H {
+            out.extend_from_slice(&img.data[y * img.width..y * img.width + W]);
+        }
+        out
+    };
+    let frames = vec![(0, crop(0, 0)), (100, far.clone()), (200, far)];
+    let out = run(&frames);
+    assert!(out[1].is_err(), "{:?}", out[1]);
+    assert_eq!(out[2], Ok(Some((ms(100), ms(200)))));
+}
