@@ -127,20 +127,13 @@ pub fn simulate_faults(
         log_stage(&mut injected, Stream::Flow, &s, x);
     }
     log.injected.extend(injected);
-    let times = |v: Option<Vec<Timestamp>>| v.unwrap_or_default();
-    log.injected.extend(crate::faults::scenario::spoiled(
-        plan,
-        &times(
-            ds.wheel
-                .as_ref()
-                .map(|(_, v)| v.iter().map(|s| s.t).collect()),
-        ),
-        &times(
-            ds.flow
-                .as_ref()
-                .map(|(_, v)| v.iter().map(|s| s.t).collect()),
-        ),
-    ));
+    let wheel_times: Vec<Timestamp> = ds
+        .wheel
+        .as_ref()
+        .map(|(_, v)| v.iter().map(|s| s.t).collect())
+        .unwrap_or_default();
+    log.injected
+        .extend(crate::faults::scenario::spoiled(plan, &wheel_times));
     write_dataset(&dataset, &ds)?;
 
     // The log as recorded, then the stream faults on its way to the estimator.

@@ -335,7 +335,7 @@ impl FaultKind {
             Gap(_) => Expected::Reject(Reject::Gap),
             WheelSpi | FlowSpi => Expected::Reject(Reject::Bus),
             FlowBrownout | WheelParity | WheelErrorFlag => Expected::Reject(Reject::Integrity),
-            Lifted => Expected::Reject(Reject::LowQuality),
+            Lifted => Expected::Reject(Reject::Gated),
             Bump => Expected::Fused,
         }
     }
@@ -389,16 +389,18 @@ impl FaultKind {
             }
             WheelParity => "parity error in COUNT left-encoder answers -> integrity",
             WheelErrorFlag => "framing error (EF, ERRFL) on COUNT left-encoder reads -> integrity",
-            WheelWrap => "left wheel spins free 0.6 turns per read for DUR (0.1 s) -> out_of_range",
-            CamBlack => "COUNT black frames -> low_quality",
-            CamSaturated => "COUNT white frames -> low_quality",
-            CamUniform => "COUNT mid-grey frames -> low_quality",
-            CamBlur => "COUNT heavily blurred frames -> low_quality",
+            WheelWrap => {
+                "left wheel spins free 0.6 turns per read for DUR (0.1 s): the driver's counter refuses the jump -> out_of_range"
+            }
+            CamBlack => "COUNT black frames -> low_quality (and the pair after)",
+            CamSaturated => "COUNT white frames -> low_quality (and the pair after)",
+            CamUniform => "COUNT mid-grey frames -> low_quality (and the pair after)",
+            CamBlur => "COUNT heavily blurred frames -> low_quality (and the pair after)",
             CamFrozen => "COUNT frames identical to the previous one -> fused (no motion seen)",
             SegNoGround => "COUNT label maps with no ground class -> low_quality",
             SegUnknown => "COUNT label maps of unknown labels only -> low_quality",
             Stuck => "wheels turn, robot stuck for DUR (2 s): wheel samples -> gated",
-            Lifted => "robot lifted for DUR (2 s): flow reports -> low_quality",
+            Lifted => "robot lifted for DUR (2 s), wheels spin free: wheel samples -> gated",
             Bump => "a cable (12 mm) under the robot at START -> fused (a jolt event)",
         }
     }

@@ -54,18 +54,18 @@ pub struct Recovery {
 }
 
 impl Recovery {
-    /// Compares two EKF trajectories at `window_end_ns + RECOVERY_S`.
+    /// Compares two EKF trajectories at `window_end_ns + RECOVERY_S`, each
+    /// against its own truth (a motion fault changes the drive).
     pub fn judge(
-        faulted: &[TumPose],
-        free: &[TumPose],
-        truth: &[GroundTruth],
+        (faulted, faulted_truth): (&[TumPose], &[GroundTruth]),
+        (free, free_truth): (&[TumPose], &[GroundTruth]),
         window_end_ns: u64,
     ) -> Option<Recovery> {
         let at_ns = window_end_ns + (RECOVERY_S * 1e9) as u64;
         Some(Recovery {
             at_ns,
-            faulted: error_at(faulted, truth, at_ns)?,
-            free: error_at(free, truth, at_ns)?,
+            faulted: error_at(faulted, faulted_truth, at_ns)?,
+            free: error_at(free, free_truth, at_ns)?,
         })
     }
 

@@ -8,7 +8,7 @@ use super::report::Injected;
 use super::spec::FaultPlan;
 use crate::sim::motion::integrate;
 use crate::sim::scenario::Scenario;
-use crate::sim::script::{Episode, EpisodeKind};
+use crate::sim::script::{Episode, EpisodeKind, LIFT_RAMP};
 use crate::sim::world::Strip;
 use traction::vslam_core::Timestamp;
 
@@ -57,23 +57,31 @@ pub fn apply(plan: &FaultPlan, sc: &Scenario) -> Scenario {
 }
 
 /// The samples a motion fault spoils, from the generated streams' time
-/// stamps: the wheel samples of a `stuck` window (the wheels turn, the
-/// robot does not: they must be gated), the flow reports of a `lifted`
-/// window (no floor in focus: low quality).
-pub fn spoiled(plan: &FaultPlan, wheel: &[Timestamp], flow: &[Timestamp]) -> Vec<Injected> {
+/// stamps: the wheel samples of a `stuck` window, and of a `lifted` one
+/// from half way up to half way down (the wheels turn, the robot does not:
+/// they must be gated). The flow reports of a lifted robot are not judged:
+/// out of focus they are either invalid (low quality) or valid zero motion,
+/// which is true.
+pub fn spoiled(plan: &FaultPlan, wheel: &[Timestamp]) -> Vec<Injected> {
     let mut out = Vec::new();
     for (i, f) in plan.faults.iter().enumerate() {
-        let (stream, times) = match f.kind {
-            FaultKind::Stuck => (Stream::Wheel, wheel),
-            FaultKind::Lifted => (Stream::Flow, flow),
+        let margin = match f.kind {
+            FaultKind::Stuck => 0,
+            FaultKind::Lifted => (0.5 * LIFT_RAMP * 1e9) as u64,
             _ => continue,
         };
-        out.extend(times.iter().filter(|t| f.covers(t.0)).map(|t| Injected {
-            fault: i,
-            stream,
-            t: *t,
-            occurrence: 0,
-        }));
+        let (from, to) = (f.start_ns() + margin, f.end_ns().saturating_sub(margin));
+        out.extend(
+            wheel
+                .iter()
+                .filter(|t| t.0 >= from && t.0 < to)
+                .map(|t| Injected {
+                    fault: i,
+                    stream: Stream::Wheel,
+                    t: *t,
+                    occurrence: 0,
+                }),
+        );
     }
     out
 }

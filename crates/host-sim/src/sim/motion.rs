@@ -2,7 +2,7 @@
 //! script: rate-limited commands, slip per surface and per episode, body lift
 //! over strips and cables. Everything the sensors see derives from this.
 
-use super::script::{EpisodeKind, LIFT_WHEEL_FACTOR, Script};
+use super::script::{EpisodeKind, LIFT_HEIGHT, LIFT_WHEEL_FACTOR, Script};
 use super::world::{Surface, World};
 
 /// Integration step of the truth, nanoseconds (1 kHz).
@@ -98,7 +98,16 @@ pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep
         w = approach(w, wc, robot.max_yaw_accel * dt);
         let episode = script.episode(t);
         let held = matches!(episode, Some(EpisodeKind::Stuck | EpisodeKind::Lifted));
-        let (vg, wg) = if held { (0.0, 0.0) } else { (v, w) };
+        let (vg, wg) = match episode {
+            Some(EpisodeKind::Stuck) => (0.0, 0.0),
+            // Picked up and set down again: the body's ground speed fades
+            // out while it rises and back in while it comes down.
+            Some(EpisodeKind::Lifted) => {
+                let on_floor = 1.0 - script.lift(t) / LIFT_HEIGHT;
+                (v * on_floor, w * on_floor)
+            }
+            _ => (v, w),
+        };
         let surface = world.surface_at(x, y);
         let factor = (1.0 + surface_slip(surface))
             * match episode {

@@ -12,7 +12,7 @@ use crate::asl::{
 use crate::error::CliError;
 use crate::faults::image::{spoil_frame, spoil_labels};
 use crate::faults::report::Injected;
-use crate::faults::{FailedRead, FaultKind, FaultPlan, FaultSpec, Stage, Stream};
+use crate::faults::{Expected, FailedRead, FaultKind, FaultPlan, FaultSpec, Stage, Stream};
 use crate::pngio::save_gray;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -188,6 +188,7 @@ pub fn generate_with(
             })
     };
     let mut previous_frame: Option<crate::pngio::GrayImage> = None;
+    let mut pair_after: Option<usize> = None;
 
     let cam_dir = root.join("mav0/cam0/data");
     let seg_dir = root.join("mav0/seg0/data");
@@ -201,9 +202,15 @@ pub fn generate_with(
     for s in truth.iter().step_by(every(sc.camera.rate_hz)) {
         let path = cam_dir.join(format!("{}.png", s.t_ns));
         let mut img = render_ceiling(&sc.world, &sc.camera, &tex, s);
+        let mut spoiled = None;
         if let Some((i, kind)) = image_fault(Stream::Camera, s.t_ns)
             && spoil_frame(kind, &mut img, previous_frame.as_ref())
         {
+            spoiled = Some(i);
+        }
+        // A frame's outcome is its pair's (previous, this): after a frame
+        // without trackable texture the next pair is unusable too.
+        if let Some(i) = spoiled.or(pair_after.take()) {
             faults.injected.push(Injected {
                 fault: i,
                 stream: Stream::Camera,
@@ -211,6 +218,11 @@ pub fn generate_with(
                 occurrence: 0,
             });
         }
+        pair_after = spoiled.filter(|i| {
+            plan.faults
+                .get(*i)
+                .is_some_and(|f| f.kind.expected() != Expected::Fused)
+        });
         save_gray(&path, &img)?;
         previous_frame = Some(img);
         frames.push(ImageEntry {
