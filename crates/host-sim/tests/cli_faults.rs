@@ -100,3 +100,37 @@ fn report_json_counts_what_was_injected() {
     assert!(h["imu_steps_checked"].as_u64().unwrap() > 2000);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_fault_that_never_fires_changes_nothing() {
+    // A cable at 100 s, after the 12 s run: the fault path (generation with
+    // fault hooks, the log read back, the stream injector, the feed) must
+    // give exactly the outputs of a plain run.
+    let base =
+        std::env::temp_dir().join(format!("host-sim-cli-faults-idle-{}", std::process::id()));
+    let (plain, idle) = (base.join("plain"), base.join("idle"));
+    for (dir, extra) in [(&plain, None), (&idle, Some("bump@100"))] {
+        let mut cmd = host_sim();
+        cmd.args(["simulate", "--scenario", "short", "--out"])
+            .arg(dir);
+        if let Some(f) = extra {
+            cmd.args(["--faults", f]);
+        }
+        assert!(cmd.output().unwrap().status.success());
+    }
+    for f in ["ekf.tum", "vslam.tum", "wheel_only.tum", "trajectory.svg"] {
+        assert_eq!(
+            std::fs::read(plain.join(f)).unwrap(),
+            std::fs::read(idle.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    let read = |d: &std::path::Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("report.json")).unwrap()).unwrap()
+    };
+    let mut with = read(&idle);
+    let faults = with.as_object_mut().unwrap().remove("faults").unwrap();
+    assert_eq!(with, read(&plain));
+    assert_eq!(faults["faults"][0]["injected"], 0);
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -475,4 +475,93 @@ mod tests {
         assert_eq!(out[6].sample.left, 60);
         assert_eq!(FaultKind::WheelOutlier.stage(), Stage::Log);
     }
+
+    mod props {
+        use super::super::*;
+        use crate::faults::kind::{FaultKind, Sensor};
+        use crate::faults::spec::FaultSpec;
+        use proptest::prelude::*;
+        use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
+
+        fn config() -> Config {
+            Config {
+                cases: 128,
+                rng_algorithm: RngAlgorithm::ChaCha,
+                rng_seed: RngSeed::Fixed(0x6661_756c_7473),
+                failure_persistence: Some(Box::new(FileFailurePersistence::Off)),
+                ..Config::default()
+            }
+        }
+
+        fn flow_kind() -> impl Strategy<Value = FaultKind> {
+            prop::sample::select(vec![
+                FaultKind::FlowOutlier,
+                FaultKind::FlowStuck,
+                FaultKind::FlowLimit,
+                FaultKind::FlowLowSqual,
+                FaultKind::FlowTextureless,
+                FaultKind::Duplicate(Sensor::Flow),
+                FaultKind::ZeroDt(Sensor::Flow),
+                FaultKind::Late(Sensor::Flow),
+                FaultKind::Gap(Sensor::Flow),
+            ])
+        }
+
+        fn plan() -> impl Strategy<Value = FaultPlan> {
+            prop::collection::vec((flow_kind(), 0.0..1.2f64, 0.01..0.6f64, 1u32..4), 0..5).prop_map(
+                |v| FaultPlan {
+                    faults: v
+                        .into_iter()
+                        .map(|(k, start, d, n)| {
+                            let f = FaultSpec::new(k, start);
+                            if k.has_window() {
+                                f.lasting(d)
+                            } else {
+                                f.times(n)
+                            }
+                        })
+                        .collect(),
+                },
+            )
+        }
+
+        proptest! {
+            #![proptest_config(config())]
+
+            /// Whatever the plan: no panic; every record names a delivered
+            /// sample with its time stamp; only gaps remove samples, only
+            /// duplicates add them; both stages together see every fault.
+            #[test]
+            fn every_record_names_a_delivered_sample(plan in plan(), n in 1usize..150) {
+                let input: Vec<FlowSample> = (0..n as u64)
+                    .map(|i| FlowSample {
+                        t: Timestamp(10_000_000 * (i + 1)),
+                        dx: (i % 7) as i16 - 3,
+                        dy: 2,
+                        squal: 90,
+                        shutter: 0x0200,
+                        motion: true,
+                        ..FlowSample::default()
+                    })
+                    .collect();
+                let mut total_dropped = 0u32;
+                let mut samples = input.clone();
+                for stage in [Stage::Log, Stage::Stream] {
+                    let (out, spoiled, dropped) = inject(&samples, &plan, stage);
+                    for s in &spoiled {
+                        prop_assert!(plan.faults.get(s.fault).is_some());
+                        let d = out.get(s.delivery);
+                        prop_assert!(d.is_some_and(|d| d.sample.t == s.t), "{s:?}");
+                    }
+                    let dropped: u32 = dropped.iter().map(|d| d.1).sum();
+                    total_dropped += dropped;
+                    let dups = out.len() + dropped as usize - samples.len();
+                    prop_assert!(dups <= plan.faults.iter().filter(|f| matches!(f.kind, FaultKind::Duplicate(_))).map(|f| f.count as usize).sum::<usize>());
+                    prop_assert!(out.iter().all(|d| d.arrival >= d.sample.t));
+                    samples = out.into_iter().map(|d| d.sample).collect();
+                }
+                prop_assert!(samples.len() + total_dropped as usize >= input.len());
+            }
+        }
+    }
 }
