@@ -119,6 +119,17 @@ pub struct StreamCounts {
     pub segmentation: SampleCounts,
 }
 
+/// One of the buffered sample streams.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleStream {
+    /// IMU samples.
+    Imu,
+    /// Wheel counts.
+    Wheel,
+    /// Flow reports.
+    Flow,
+}
+
 /// The whole estimator.
 pub struct Estimator<'b> {
     ekf: EgoEkf,
@@ -181,6 +192,18 @@ impl<'b> Estimator<'b> {
                 let p = self.reject(late, reason);
                 self.queue(p);
             }
+        }
+    }
+
+    /// Counts a read of `stream` that failed before it produced a sample (a
+    /// bus error, a parity or product-id check): the driver's error, turned
+    /// into its reason, lands in the stream's tally like a rejected sample,
+    /// so the counts hold every read. The state is not touched.
+    pub fn reject_read(&mut self, stream: SampleStream, reason: Reject) {
+        match stream {
+            SampleStream::Imu => self.counts.imu.rejected_one(reason),
+            SampleStream::Wheel => self.counts.wheel.rejected_one(reason),
+            SampleStream::Flow => self.counts.flow.rejected_one(reason),
         }
     }
 

@@ -12,6 +12,7 @@ pub mod asl;
 pub mod chips;
 pub mod cli;
 pub mod error;
+pub mod faults;
 pub mod matches;
 pub mod metrics;
 pub mod pngio;

@@ -5,6 +5,7 @@
 
 use crate::asl::{Dataset, GroundTruth, SegMeta, WheelMeta};
 use crate::error::CliError;
+use crate::faults::{FailedRead, Stream};
 use crate::metrics::{TrajectoryError, trajectory_error};
 use crate::pngio::load_gray;
 use crate::svg::{Series, top_view};
@@ -16,7 +17,7 @@ use traction::ego_ekf::surface::{
     ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
 };
 use traction::ego_ekf::{FilterConfig, FlowConfig};
-use traction::estimator::{Estimator, EstimatorConfig, Processed};
+use traction::estimator::{Estimator, EstimatorConfig, Processed, SampleStream};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
 use traction::vslam_core::decompose::PinholeIntrinsics;
@@ -39,6 +40,99 @@ pub struct ReplayOutput {
     pub report: Value,
     /// Errors against ground truth, when present: `(name, error)`.
     pub errors: Vec<(&'static str, TrajectoryError)>,
+    /// The outcome of every sample, frame, map and failed read, in
+    /// processing order: stream, time stamp, `fused` (`first` for a first
+    /// camera frame) or the reason name.
+    pub outcomes: Outcomes,
+    /// The filter's health after every IMU step.
+    pub health: Health,
+}
+
+/// The filter's health, checked after every processed IMU sample once the
+/// filter runs: every nominal state value finite, the covariance finite,
+/// symmetric and positive definite (Cholesky of the correlation matrix,
+/// `ego_ekf::covariance::is_positive_definite`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Health {
+    /// Steps checked.
+    pub steps: u32,
+    /// Steps with a non-finite state value.
+    pub non_finite: u32,
+    /// Steps whose covariance was not symmetric positive definite.
+    pub not_spd: u32,
+}
+
+impl Health {
+    fn check(&mut self, ekf: &traction::ego_ekf::EgoEkf) {
+        if !ekf.is_initialised() {
+            return;
+        }
+        let x = ekf.state();
+        let finite = [
+            x.p_wb,
+            x.v_wb,
+            x.accel_bias,
+            x.gyro_bias,
+            x.gravity,
+            x.clone_p_wb,
+            x.p_bl,
+            x.p_br,
+        ]
+        .iter()
+        .all(|v| v.iter().all(|c| c.is_finite()))
+            && [x.q_wb, x.clone_q_wb, x.q_rb]
+                .iter()
+                .all(|q| q.coords.iter().all(|c| c.is_finite()))
+            && x.radius_left.is_finite()
+            && x.radius_right.is_finite();
+        self.steps += 1;
+        if !finite {
+            self.non_finite += 1;
+        }
+        if !traction::ego_ekf::covariance::is_positive_definite(ekf.covariance()) {
+            self.not_spd += 1;
+        }
+    }
+
+    /// Whether every checked step was healthy.
+    pub fn ok(&self) -> bool {
+        self.non_finite == 0 && self.not_spd == 0
+    }
+}
+
+/// Outcomes of samples in processing order: stream, time stamp, name.
+pub type Outcomes = Vec<(Stream, Timestamp, &'static str)>;
+
+/// What reaches the estimator instead of the dataset's own sample streams
+/// (`simulate --faults`): samples in arrival order, and reads that failed.
+#[derive(Clone, Debug, Default)]
+pub struct Feed {
+    /// `(arrival, sample)`: the estimator gets them sorted by arrival (stably).
+    pub samples: Vec<(Timestamp, Event)>,
+    /// Reads that produced no sample.
+    pub failed: Vec<FailedRead>,
+}
+
+fn outcome_name<T>(r: &Result<T, Reject>) -> &'static str {
+    match r {
+        Ok(_) => "fused",
+        Err(e) => e.name(),
+    }
+}
+
+fn processed_outcome(p: &Processed) -> (Stream, Timestamp, &'static str) {
+    match p {
+        Processed::Imu { t, outcome, .. } => (Stream::Imu, *t, outcome_name(outcome)),
+        Processed::Wheel { t, outcome } => (
+            Stream::Wheel,
+            *t,
+            match outcome {
+                Ok(inn) if inn.gated => "gated",
+                o => outcome_name(o),
+            },
+        ),
+        Processed::Flow { t, outcome } => (Stream::Flow, *t, outcome_name(outcome)),
+    }
 }
 
 fn extrinsics(path: &Path, m: &[f32; 16]) -> Result<Extrinsics, CliError> {
@@ -107,6 +201,7 @@ fn pose(t: Timestamp, p: Vec3, q: &traction::vslam_core::geometry::Quat) -> TumP
 
 enum Next {
     Sample(Event),
+    Failed(usize),
     Camera(usize),
     Labels(usize),
 }
@@ -174,6 +269,18 @@ pub fn replay_with(
     root: &Path,
     progress: bool,
     options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
+    replay_feed(ds, root, progress, options, None)
+}
+
+/// [`replay_with`], with the sample streams replaced by `feed` when given
+/// (the dataset's images, metadata and truth stay).
+pub fn replay_feed(
+    ds: &Dataset,
+    root: &Path,
+    progress: bool,
+    options: ReplayOptions,
+    feed: Option<&Feed>,
 ) -> Result<ReplayOutput, CliError> {
     let missing = ds.missing();
     // Any sensor may be absent: what is missing simply never arrives, and the
@@ -298,14 +405,27 @@ pub fn replay_with(
 
     // Every stream in time order; images after the samples of the same time stamp.
     let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
-    items.extend(imu.iter().map(|s| (s.t, 0, Next::Sample(Event::Imu(*s)))));
-    items.extend(
-        wheels
-            .iter()
-            .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
-    );
-    if let Some((_, f)) = &ds.flow {
-        items.extend(f.iter().map(|s| (s.t, 0, Next::Sample(Event::Flow(*s)))));
+    match feed {
+        None => {
+            items.extend(imu.iter().map(|s| (s.t, 0, Next::Sample(Event::Imu(*s)))));
+            items.extend(
+                wheels
+                    .iter()
+                    .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
+            );
+            if let Some((_, f)) = &ds.flow {
+                items.extend(f.iter().map(|s| (s.t, 0, Next::Sample(Event::Flow(*s)))));
+            }
+        }
+        Some(feed) => {
+            items.extend(feed.samples.iter().map(|(a, e)| (*a, 0, Next::Sample(*e))));
+            items.extend(
+                feed.failed
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| (f.t, 0, Next::Failed(i))),
+            );
+        }
     }
     if let Some((_, frames)) = &ds.cam {
         items.extend(
@@ -343,31 +463,51 @@ pub fn replay_with(
     // Every jolt as it is judged: the monitor's own log keeps only the last
     // few, a report keeps them all.
     let mut jolt_events: Vec<JoltEvent> = Vec::new();
-    let handle = |p: Processed,
-                  est: &Estimator<'_>,
-                  (out, jolts): (&mut Vec<TumPose>, &mut Vec<JoltEvent>)| {
-        if let Processed::Imu { jolt: Some(e), .. } = p {
-            jolts.push(e);
-        }
-        if let Processed::Imu {
-            t, outcome: Ok(_), ..
-        } = p
-            && est.ekf().is_initialised()
-        {
-            out.push(pose(t, est.ekf().position(), &est.ekf().attitude()));
-        }
-    };
+    let mut outcomes: Outcomes = Vec::new();
+    let mut health = Health::default();
+    let check_health = feed.is_some();
+    let mut handle =
+        |p: Processed,
+         est: &Estimator<'_>,
+         (out, jolts, outcomes): (&mut Vec<TumPose>, &mut Vec<JoltEvent>, &mut Outcomes)| {
+            outcomes.push(processed_outcome(&p));
+            if check_health && matches!(p, Processed::Imu { .. }) {
+                health.check(est.ekf());
+            }
+            if let Processed::Imu { jolt: Some(e), .. } = p {
+                jolts.push(e);
+            }
+            if let Processed::Imu {
+                t, outcome: Ok(_), ..
+            } = p
+                && est.ekf().is_initialised()
+            {
+                out.push(pose(t, est.ekf().position(), &est.ekf().attitude()));
+            }
+        };
     for (i, (t, _, next)) in items.iter().enumerate() {
         match next {
             Next::Sample(e) => {
                 est.offer(*e);
                 while let Some(p) = est.poll() {
-                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events, &mut outcomes));
                 }
+            }
+            Next::Failed(k) => {
+                let Some(f) = feed.and_then(|f| f.failed.get(*k)) else {
+                    continue;
+                };
+                let stream = match f.stream {
+                    Stream::Imu => SampleStream::Imu,
+                    Stream::Wheel => SampleStream::Wheel,
+                    _ => SampleStream::Flow,
+                };
+                est.reject_read(stream, f.reason);
+                outcomes.push((f.stream, f.t, f.reason.name()));
             }
             Next::Camera(k) => {
                 while let Some(p) = est.poll_until(*t) {
-                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events, &mut outcomes));
                 }
                 let Some((_, frames)) = &ds.cam else { continue };
                 let Some(entry) = frames.get(*k) else {
@@ -377,7 +517,16 @@ pub fn replay_with(
                 let view = img
                     .view()
                     .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
-                match est.process_camera(*t, &view) {
+                let outcome = est.process_camera(*t, &view);
+                outcomes.push((
+                    Stream::Camera,
+                    *t,
+                    match &outcome {
+                        Ok(None) => "first",
+                        o => outcome_name(o),
+                    },
+                ));
+                match outcome {
                     Ok(Some(d)) => {
                         decisions.push(decision_json(*t, &d));
                         let b = est.scale().body_pose();
@@ -392,7 +541,7 @@ pub fn replay_with(
             }
             Next::Labels(k) => {
                 while let Some(p) = est.poll_until(*t) {
-                    handle(p, &est, (&mut ekf_poses, &mut jolt_events));
+                    handle(p, &est, (&mut ekf_poses, &mut jolt_events, &mut outcomes));
                 }
                 let Some((_, maps)) = &ds.seg else { continue };
                 let Some(entry) = maps.get(*k) else { continue };
@@ -400,6 +549,7 @@ pub fn replay_with(
                 let labels = LabelView::new(&img.data, img.width, img.height, img.width)
                     .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
                 let outcome = est.process_segmentation(*t, &labels);
+                outcomes.push((Stream::Segmentation, *t, outcome_name(&outcome)));
                 let state = est.surface().map(|s| s.state_at(*t));
                 let grip = est.surface().map(|s| s.grip_params(*t));
                 surfaces.push(json!({
@@ -419,7 +569,7 @@ pub fn replay_with(
     }
     est.finish();
     while let Some(p) = est.poll() {
-        handle(p, &est, (&mut ekf_poses, &mut jolt_events));
+        handle(p, &est, (&mut ekf_poses, &mut jolt_events, &mut outcomes));
     }
     if let Some(b) = bar {
         b.finish_and_clear();
@@ -482,6 +632,8 @@ pub fn replay_with(
         wheel_only,
         report,
         errors,
+        outcomes,
+        health,
     })
 }
 

@@ -42,6 +42,9 @@ pub enum EncoderFault {
     WeakMagnet,
     /// The chip saw a framing error: EF set in the next response, FRERR in ERRFL.
     FramingError,
+    /// The answer to the next read command (the frame after it) arrives
+    /// with its parity bit flipped: what a driver checks.
+    CorruptAnswer,
 }
 
 /// The simulated encoder.
@@ -134,6 +137,13 @@ impl EncoderSim {
             ef = true;
             self.fault = None;
         }
+        let corrupt_answer = self.fault == Some(EncoderFault::CorruptAnswer)
+            && parity_ok
+            && cmd & 0x4000 != 0
+            && self.write_to.is_none();
+        if corrupt_answer {
+            self.fault = None;
+        }
         let data = if let Some(addr) = self.write_to.take() {
             if parity_ok {
                 self.regs.insert(addr, cmd & 0x3FFF);
@@ -151,6 +161,9 @@ impl EncoderSim {
             0
         };
         self.pending = with_even_parity((if ef { 0x4000 } else { 0 }) | (data & 0x3FFF));
+        if corrupt_answer {
+            self.pending ^= 0x8000;
+        }
         response
     }
 }
@@ -245,6 +258,35 @@ mod tests {
         assert_eq!(s.angle, 4096);
         s.set_angle_radians(-std::f64::consts::TAU * 0.25);
         assert_eq!(s.angle, 12_288);
+    }
+}
+
+#[cfg(test)]
+mod answer_tests {
+    use super::*;
+
+    #[test]
+    fn a_corrupt_answer_is_the_one_a_read_returns() {
+        let mut s = EncoderSim::new();
+        s.set_angle_counts(77);
+        let frame = |s: &mut EncoderSim, cmd: u16| {
+            let mut b = cmd.to_be_bytes();
+            s.transaction(&mut [Operation::TransferInPlace(&mut b)])
+                .unwrap();
+            u16::from_be_bytes(b)
+        };
+        s.inject(EncoderFault::CorruptAnswer);
+        let first = frame(&mut s, 0xFFFF); // READ ANGLECOM
+        assert_eq!(
+            first.count_ones() % 2,
+            0,
+            "the command's own frame is clean"
+        );
+        let answer = frame(&mut s, 0x0000);
+        assert_eq!(answer.count_ones() % 2, 1, "odd parity on the answer");
+        assert_eq!(answer & 0x3FFF, 77);
+        frame(&mut s, 0xFFFF);
+        assert_eq!(frame(&mut s, 0x0000).count_ones() % 2, 0, "one answer only");
     }
 }
 

@@ -1,9 +1,10 @@
 //! `host-sim simulate` and `host-sim replay`.
 
 use crate::error::CliError;
+use crate::faults::{FaultPlan, kinds_help};
 use crate::replay::{ReplayOutput, run_replay, summary_table};
 use crate::sim::scenario::SCENARIOS;
-use crate::simulate::run_simulate;
+use crate::simulate::{run_simulate, run_simulate_faults};
 use clap::Args;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -30,6 +31,16 @@ pub struct SimulateArgs {
     /// Output folder.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+    /// Faults to inject, KIND@START[+DUR][xCOUNT] comma-separated (seconds
+    /// from the start), e.g. `imu-nan@4x3,wheel-gap@5+0.5,stuck@6+2`.
+    /// report.json then has a `faults` section. Kinds (-> the outcome every
+    /// spoiled sample must end in):
+    #[arg(long, value_name = "LIST", long_help = faults_long_help())]
+    pub faults: Option<FaultPlan>,
+}
+
+fn faults_long_help() -> String {
+    kinds_help()
 }
 
 /// Arguments of `host-sim replay`.
@@ -83,8 +94,24 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
         a.seed,
         a.out.display()
     );
-    let r = run_simulate(&a.scenario, a.seed, &a.out, std::io::stderr().is_terminal())?;
-    print_summary(&r, &a.out);
+    let progress = std::io::stderr().is_terminal();
+    match a.faults.filter(|p| !p.is_empty()) {
+        None => {
+            let r = run_simulate(&a.scenario, a.seed, &a.out, progress)?;
+            print_summary(&r, &a.out);
+        }
+        Some(plan) => {
+            let run = run_simulate_faults(&a.scenario, a.seed, &a.out, progress, &plan)?;
+            print_summary(&run.output, &a.out);
+            println!("faults (injected, expected outcome, as expected, observed):");
+            for r in &run.results {
+                println!(
+                    "  {:<24} {:>5}  {:<15} {:>5}  {:?}",
+                    r.spec, r.injected, r.expected, r.as_expected, r.observed
+                );
+            }
+        }
+    }
     Ok(())
 }
 

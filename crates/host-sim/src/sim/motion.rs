@@ -2,7 +2,7 @@
 //! script: rate-limited commands, slip per surface and per episode, body lift
 //! over strips and cables. Everything the sensors see derives from this.
 
-use super::script::{EpisodeKind, Script};
+use super::script::{EpisodeKind, LIFT_HEIGHT, LIFT_WHEEL_FACTOR, Script};
 use super::world::{Surface, World};
 
 /// Integration step of the truth, nanoseconds (1 kHz).
@@ -97,26 +97,34 @@ pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep
         v = approach(v, vc, robot.max_accel * dt);
         w = approach(w, wc, robot.max_yaw_accel * dt);
         let episode = script.episode(t);
-        let (vg, wg) = if episode == Some(EpisodeKind::Stuck) {
-            (0.0, 0.0)
-        } else {
-            (v, w)
+        let held = matches!(episode, Some(EpisodeKind::Stuck | EpisodeKind::Lifted));
+        let (vg, wg) = match episode {
+            Some(EpisodeKind::Stuck) => (0.0, 0.0),
+            // Picked up and set down again: the body's ground speed fades
+            // out while it rises and back in while it comes down.
+            Some(EpisodeKind::Lifted) => {
+                let on_floor = 1.0 - script.lift(t) / LIFT_HEIGHT;
+                (v * on_floor, w * on_floor)
+            }
+            _ => (v, w),
         };
         let surface = world.surface_at(x, y);
         let factor = (1.0 + surface_slip(surface))
             * match episode {
                 Some(EpisodeKind::Spin(k)) => k,
+                Some(EpisodeKind::Lifted) => LIFT_WHEEL_FACTOR,
                 _ => 1.0,
             };
         let half = 0.5 * robot.wheel_base;
         // Stuck: the wheels still turn as commanded; otherwise they follow the ground.
-        let (vl, vr) = if episode == Some(EpisodeKind::Stuck) {
+        let (vl, vr) = if held {
             (v - w * half, v + w * half)
         } else {
             (vg - wg * half, vg + wg * half)
         };
         let z = 0.5
-            * (world.wheel_lift(x, robot.radius_left) + world.wheel_lift(x, robot.radius_right));
+            * (world.wheel_lift(x, robot.radius_left) + world.wheel_lift(x, robot.radius_right))
+            + script.lift(t);
         out.push(TruthStep {
             t_ns: i as u64 * TRUTH_STEP_NS,
             p: [x, y, z],

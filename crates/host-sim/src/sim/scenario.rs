@@ -1,6 +1,6 @@
 //! Named scenarios and the generation of a whole ASL dataset from one.
 
-use super::drivers::{flow_through_driver, wheels_through_driver};
+use super::drivers::{flow_through_driver_with, wheels_through_driver_with};
 use super::motion::{Robot, TruthStep, integrate};
 use super::render::{Camera, Texture, render_ceiling, render_labels};
 use super::script::{Episode, EpisodeKind, Script};
@@ -10,6 +10,9 @@ use crate::asl::{
     CameraMeta, Dataset, FlowMeta, GroundTruth, ImageEntry, ImuMeta, SegMeta, WheelMeta,
 };
 use crate::error::CliError;
+use crate::faults::image::{spoil_frame, spoil_labels};
+use crate::faults::report::Injected;
+use crate::faults::{Expected, FailedRead, FaultKind, FaultPlan, FaultSpec, Stage, Stream};
 use crate::pngio::save_gray;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -125,13 +128,67 @@ pub fn generate(
     seed: u64,
     root: &Path,
 ) -> Result<(Dataset, Vec<TruthStep>), CliError> {
+    generate_with(sc, seed, root, &FaultPlan::none()).map(|(ds, truth, _)| (ds, truth))
+}
+
+/// What the chip and image faults of a generation spoiled.
+#[derive(Clone, Debug, Default)]
+pub struct GeneratedFaults {
+    /// Samples read but spoiled (encoder wrap-around), frames and maps spoiled.
+    pub injected: Vec<Injected>,
+    /// Reads that failed.
+    pub failed: Vec<FailedRead>,
+}
+
+/// [`generate`] with the chip faults of `plan` injected into the chip
+/// simulators and its vision faults into the rendered images (motion faults
+/// are applied to the scenario beforehand: `faults::scenario::apply`).
+pub fn generate_with(
+    sc: &Scenario,
+    seed: u64,
+    root: &Path,
+    plan: &FaultPlan,
+) -> Result<(Dataset, Vec<TruthStep>, GeneratedFaults), CliError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let truth = integrate(&sc.world, &sc.script, &sc.robot);
     let (imu_samples, biases) = imu(&truth, &sc.imu, &mut rng);
     // Encoders and the flow sensor are read through the real drivers from
     // register-level chip simulators.
-    let wheel_samples = wheels_through_driver(&wheel_angles(&truth, sc.wheel_rate_hz))?;
-    let flow_samples = flow_through_driver(&flow(&truth, &sc.flow, &mut rng))?;
+    let wheel_reads = wheels_through_driver_with(&wheel_angles(&truth, sc.wheel_rate_hz), plan)?;
+    let flow_reads = flow_through_driver_with(&flow(&truth, &sc.flow, &mut rng), plan)?;
+    let mut faults = GeneratedFaults::default();
+    for (stream, spoiled) in [
+        (Stream::Wheel, &wheel_reads.spoiled),
+        (Stream::Flow, &flow_reads.spoiled),
+    ] {
+        faults.injected.extend(spoiled.iter().map(|s| Injected {
+            fault: s.fault,
+            stream,
+            t: s.t,
+            occurrence: 0,
+        }));
+    }
+    faults.failed.extend(wheel_reads.failed);
+    faults.failed.extend(flow_reads.failed);
+    let (wheel_samples, flow_samples) = (wheel_reads.samples, flow_reads.samples);
+    let image_faults: Vec<(usize, FaultSpec)> = plan
+        .select(|f| f.kind.stage() == Stage::Image)
+        .map(|(i, f)| (i, *f))
+        .collect();
+    // Frames and maps each fault spoils: `count` of them from its start.
+    let mut left: Vec<u32> = image_faults.iter().map(|(_, f)| f.count).collect();
+    let mut image_fault = |stream: Stream, t: u64| -> Option<(usize, FaultKind)> {
+        image_faults
+            .iter()
+            .zip(left.iter_mut())
+            .find(|((_, f), n)| **n > 0 && f.kind.stream() == stream && t >= f.start_ns())
+            .map(|((i, f), n)| {
+                *n -= 1;
+                (*i, f.kind)
+            })
+    };
+    let mut previous_frame: Option<crate::pngio::GrayImage> = None;
+    let mut pair_after: Option<usize> = None;
 
     let cam_dir = root.join("mav0/cam0/data");
     let seg_dir = root.join("mav0/seg0/data");
@@ -144,7 +201,30 @@ pub fn generate(
     let every = |hz: f64| ((1e9 / hz) as u64 / super::motion::TRUTH_STEP_NS).max(1) as usize;
     for s in truth.iter().step_by(every(sc.camera.rate_hz)) {
         let path = cam_dir.join(format!("{}.png", s.t_ns));
-        save_gray(&path, &render_ceiling(&sc.world, &sc.camera, &tex, s))?;
+        let mut img = render_ceiling(&sc.world, &sc.camera, &tex, s);
+        let mut spoiled = None;
+        if let Some((i, kind)) = image_fault(Stream::Camera, s.t_ns)
+            && spoil_frame(kind, &mut img, previous_frame.as_ref())
+        {
+            spoiled = Some(i);
+        }
+        // A frame's outcome is its pair's (previous, this): after a frame
+        // without trackable texture the next pair is unusable too.
+        if let Some(i) = spoiled.or(pair_after.take()) {
+            faults.injected.push(Injected {
+                fault: i,
+                stream: Stream::Camera,
+                t: Timestamp(s.t_ns),
+                occurrence: 0,
+            });
+        }
+        pair_after = spoiled.filter(|i| {
+            plan.faults
+                .get(*i)
+                .is_some_and(|f| f.kind.expected() != Expected::Fused)
+        });
+        save_gray(&path, &img)?;
+        previous_frame = Some(img);
         frames.push(ImageEntry {
             t: Timestamp(s.t_ns),
             path,
@@ -152,7 +232,18 @@ pub fn generate(
     }
     for s in truth.iter().step_by(every(sc.segmentation.rate_hz)) {
         let path = seg_dir.join(format!("{}.png", s.t_ns));
-        save_gray(&path, &render_labels(&sc.world, &sc.segmentation, s))?;
+        let mut img = render_labels(&sc.world, &sc.segmentation, s);
+        if let Some((i, kind)) = image_fault(Stream::Segmentation, s.t_ns)
+            && spoil_labels(kind, &mut img)
+        {
+            faults.injected.push(Injected {
+                fault: i,
+                stream: Stream::Segmentation,
+                t: Timestamp(s.t_ns),
+                occurrence: 0,
+            });
+        }
+        save_gray(&path, &img)?;
         labels.push(ImageEntry {
             t: Timestamp(s.t_ns),
             path,
@@ -223,7 +314,7 @@ pub fn generate(
         )),
         groundtruth: Some(groundtruth(&truth, &biases, every(m.rate_hz))),
     };
-    Ok((ds, truth))
+    Ok((ds, truth, faults))
 }
 
 #[cfg(test)]

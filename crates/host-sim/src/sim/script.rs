@@ -72,7 +72,18 @@ pub enum EpisodeKind {
     Spin(f64),
     /// The robot is stuck: wheels turn as commanded, the body does not move.
     Stuck,
+    /// The robot is lifted off the floor: the body stays put (raised by
+    /// [`LIFT_HEIGHT`]), the unloaded wheels spin [`LIFT_WHEEL_FACTOR`]
+    /// times faster than commanded, the flow sensor loses the floor.
+    Lifted,
 }
+
+/// How high a lifted robot is raised, metres.
+pub const LIFT_HEIGHT: f64 = 0.03;
+/// Rise and set-down time of a lift, seconds.
+pub const LIFT_RAMP: f64 = 0.3;
+/// Unloaded wheels spin this much faster than commanded.
+pub const LIFT_WHEEL_FACTOR: f64 = 1.3;
 
 /// A timed slip episode.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +127,19 @@ impl Script {
             .iter()
             .find(|e| t >= e.start && t < e.end)
             .map(|e| e.kind)
+    }
+
+    /// Height of the body lifted by a [`EpisodeKind::Lifted`] episode at `t`
+    /// (a raised-cosine rise and set-down of [`LIFT_RAMP`]), metres.
+    pub fn lift(&self, t: f64) -> f64 {
+        self.episodes
+            .iter()
+            .find(|e| e.kind == EpisodeKind::Lifted && t >= e.start && t < e.end)
+            .map(|e| {
+                let edge = ((t - e.start).min(e.end - t) / LIFT_RAMP).min(1.0);
+                LIFT_HEIGHT * 0.5 * (1.0 - (std::f64::consts::PI * edge).cos())
+            })
+            .unwrap_or(0.0)
     }
 
     /// The office drive (60 s): wood with a cable, a threshold strip, carpet,

@@ -189,7 +189,13 @@ pub fn flow(truth: &[TruthStep], m: &FlowModel, rng: &mut ChaCha8Rng) -> Vec<Flo
         if i % every != 0 || i == 0 {
             continue;
         }
-        let (sq_mean, sq_std, shutter) = flow_quality(s.surface);
+        // Lifted, the sensor sees no floor in focus.
+        let floor = if s.episode == Some(super::script::EpisodeKind::Lifted) {
+            None
+        } else {
+            s.surface
+        };
+        let (sq_mean, sq_std, shutter) = flow_quality(floor);
         let squal = (sq_mean + gauss(rng, sq_std)).clamp(0.0, 255.0) as u8;
         let shutter = (shutter * (1.0 + gauss(rng, 0.05))).clamp(0.0, 8191.0) as u16;
         let mut sample = FlowSample {

@@ -1,0 +1,408 @@
+//! Fault injection end to end (issue 8): every fault kind on the office
+//! scenario cut to 9.5 s (seed 3), against the fault-free run of the same
+//! seed. Each test shows
+//! - no panic; every nominal state value finite and the covariance
+//!   symmetric positive definite after every IMU step (`Health`);
+//! - every spoiled sample ended in the expected outcome, and the counts in
+//!   `report.json` grew by exactly the number injected under that reason
+//!   (against the fault-free run, for every reason other than `gated`);
+//! - recovery: the EKF's planar position error at the end of the fault
+//!   window + 2 s is at most 1.2 x the fault-free run's at the same time,
+//!   with a 2 cm floor (`host_sim::faults::recovery`);
+//! - no lockout: in the last second of the run the wheel and flow samples
+//!   are fused again.
+//!
+//! Numbers: `cargo test -p host-sim --test faults -- --nocapture` prints one
+//! line per fault.
+
+use host_sim::faults::recovery::Recovery;
+use host_sim::faults::{Expected, FaultKind, FaultPlan, Stream};
+use host_sim::simulate::{FaultRun, simulate_faults};
+
+use host_sim::sim::scenario::Scenario;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::sync::OnceLock;
+use traction::vslam_core::Reject;
+
+const SEED: u64 = 3;
+const DURATION_S: f64 = 9.5;
+
+fn scenario() -> Scenario {
+    let mut s = Scenario::by_name("short").unwrap();
+    s.script.duration = DURATION_S;
+    s
+}
+
+/// A run and its `report.json` as written.
+struct Run {
+    run: FaultRun,
+    report_json: String,
+}
+
+impl std::ops::Deref for Run {
+    type Target = FaultRun;
+    fn deref(&self) -> &FaultRun {
+        &self.run
+    }
+}
+
+impl Run {
+    fn report_json_value(&self) -> Value {
+        serde_json::from_str(&self.report_json).unwrap()
+    }
+}
+
+fn run(plan: &str) -> Run {
+    let name: String = plan
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let dir = std::env::temp_dir().join(format!(
+        "host-sim-faults-{}-{}",
+        std::process::id(),
+        if name.is_empty() { "free" } else { &name }
+    ));
+    let plan: FaultPlan = plan.parse().unwrap();
+    let run = simulate_faults(&scenario(), SEED, &dir, false, &plan).unwrap();
+    let report_json = std::fs::read_to_string(dir.join("report.json")).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    Run { run, report_json }
+}
+
+fn free() -> &'static Run {
+    static FREE: OnceLock<Run> = OnceLock::new();
+    FREE.get_or_init(|| run(""))
+}
+
+fn count(report: &Value, stream: Stream, reason: Reject) -> u64 {
+    report["counts"][stream.name()]["rejected"][reason.name()]
+        .as_u64()
+        .unwrap_or(0)
+}
+
+fn fused_share_at_end(run: &Run, stream: Stream) -> f64 {
+    let end = run.output.outcomes.iter().map(|o| o.1.0).max().unwrap_or(0);
+    let last: Vec<_> = run
+        .output
+        .outcomes
+        .iter()
+        .filter(|o| o.0 == stream && o.1.0 + 1_000_000_000 >= end)
+        .collect();
+    last.iter().filter(|o| o.2 == "fused").count() as f64 / last.len().max(1) as f64
+}
+
+/// Runs `plan` and checks everything the module docs list; returns the run
+/// and its recovery judgement.
+fn check(plan: &str) -> (Run, Recovery) {
+    let free = free();
+    let run = run(plan);
+    let h = run.output.health;
+    assert!(h.steps > 1000, "{plan}: only {} steps checked", h.steps);
+    assert!(h.ok(), "{plan}: unhealthy filter {h:?}");
+    // report.json as written.
+    let on_disk: Value = serde_json::from_str(&run.report_json).unwrap();
+    assert_eq!(on_disk["faults"]["plan"], plan);
+    let mut injected_by: BTreeMap<(Stream, Reject), u64> = BTreeMap::new();
+    for (spec, r) in run.log.plan.faults.iter().zip(&run.results) {
+        // A cable is a change of the floor, not a spoiled sample.
+        if spec.kind != FaultKind::Bump {
+            assert!(r.injected > 0, "{plan}: nothing injected: {r:?}");
+        }
+        assert_eq!(
+            r.as_expected, r.injected,
+            "{plan}: {} spoiled samples, {} as expected ({}): {:?}",
+            r.injected, r.as_expected, r.expected, r.observed
+        );
+        if let Expected::Reject(reason) = spec.kind.expected()
+            && reason != Reject::Gated
+        {
+            *injected_by.entry((spec.kind.stream(), reason)).or_default() += r.injected as u64;
+        }
+    }
+    for ((stream, reason), n) in injected_by {
+        let grown =
+            count(&on_disk, stream, reason) - count(&free.report_json_value(), stream, reason);
+        assert_eq!(
+            grown,
+            n,
+            "{plan}: report.json counts {} {} grew by {grown}, {n} injected",
+            stream.name(),
+            reason.name(),
+        );
+    }
+    let end = run.results.iter().map(|r| r.window_end_ns).max().unwrap();
+    let rec = Recovery::judge(
+        (&run.output.ekf, &run.truth),
+        (&free.output.ekf, &free.truth),
+        end,
+    )
+    .unwrap();
+    eprintln!(
+        "{plan:<24} injected {:>4} {:<15} observed {:?}; e_fault({:.1} s) = {:.3} m, e_free = {:.3} m, bound {:.3} m",
+        run.results.iter().map(|r| r.injected).sum::<u32>(),
+        run.results[0].expected,
+        run.results[0].observed,
+        rec.at_ns as f64 * 1e-9,
+        rec.faulted,
+        rec.free,
+        rec.bound()
+    );
+    (run, rec)
+}
+
+fn check_recovers(plan: &str) -> Run {
+    let (run, rec) = check(plan);
+    assert!(
+        rec.recovered(),
+        "{plan}: error {:.3} m at {:.1} s, fault-free {:.3} m, bound {:.3} m",
+        rec.faulted,
+        rec.at_ns as f64 * 1e-9,
+        rec.free,
+        rec.bound()
+    );
+    for s in [Stream::Wheel, Stream::Flow] {
+        let share = fused_share_at_end(&run, s);
+        assert!(share > 0.5, "{plan}: {} locked out? {share}", s.name());
+    }
+    run
+}
+
+#[test]
+fn fault_free_run_is_healthy_and_injects_nothing() {
+    let f = free();
+    assert!(f.output.health.ok() && f.output.health.steps > 2000);
+    assert!(f.log.injected.is_empty());
+    assert_eq!(f.output.report["faults"]["faults"], serde_json::json!([]));
+}
+
+// ---- values ----
+
+#[test]
+fn imu_nan_and_inf() {
+    check_recovers("imu-nan@4x3,imu-inf@4.5");
+}
+
+#[test]
+fn imu_outlier_is_integrated_with_bounded_effect() {
+    check_recovers("imu-outlier@4");
+}
+
+// The same limitation as `imu_half_second_gap`: 0.2 s of saturated samples
+// are rejected (counted `saturated`), and the filter then misses 0.2 s of
+// motion (0.039 m at window end + 2 s against a bound of 0.030 m).
+#[test]
+#[ignore = "library limitation in ego-ekf filter.rs: an IMU outage loses the distance driven"]
+fn imu_saturated_recovers() {
+    check_recovers("imu-saturated@4+0.2");
+}
+
+#[test]
+fn imu_saturated() {
+    check("imu-saturated@4+0.2");
+}
+
+#[test]
+fn imu_stuck() {
+    check_recovers("imu-stuck@4+0.5");
+}
+
+#[test]
+fn wheel_outlier() {
+    check_recovers("wheel-outlier@4");
+}
+
+#[test]
+fn flow_outlier_is_gated() {
+    check_recovers("flow-outlier@4");
+}
+
+#[test]
+fn flow_stuck() {
+    check_recovers("flow-stuck@4+0.5");
+}
+
+#[test]
+fn flow_counts_at_the_limit() {
+    check_recovers("flow-limit@4x2");
+}
+
+#[test]
+fn flow_low_squal_is_noise() {
+    check_recovers("flow-lowsqual@4+1");
+}
+
+#[test]
+fn flow_textureless_floor() {
+    check_recovers("flow-textureless@4+0.5");
+}
+
+// ---- time ----
+
+#[test]
+fn duplicates() {
+    check_recovers("imu-dup@4x2,wheel-dup@4.3,flow-dup@4.6");
+}
+
+#[test]
+fn zero_dt() {
+    check_recovers("imu-dt0@4,wheel-dt0@4.3,flow-dt0@4.6");
+}
+
+#[test]
+fn out_of_order() {
+    check_recovers("imu-late@4,wheel-late@4.3,flow-late@4.6");
+}
+
+#[test]
+fn half_second_gaps() {
+    check_recovers("wheel-gap@4+0.5,flow-gap@4+0.5");
+}
+
+// LIBRARY LIMITATION (ego-ekf filter.rs, reported to the lead): while the
+// IMU is silent the filter does not propagate at all, and the first sample
+// after the silence is refused as a gap (dt > imu_max_dt, 20 ms) with only a
+// re-anchoring of the clock, so the distance driven during the silence is
+// lost for good (0.5 s at 0.3 m/s: 0.13 m error at window end + 2 s against
+// 0.03 m fault-free; 5 s: 1.5 m). Bridging the gap with the wheel/flow
+// velocity (or propagating the step at constant velocity) would recover it.
+// Everything else holds: the sample is counted as `gap`, the state stays
+// finite and the covariance SPD (`check` passes).
+#[test]
+#[ignore = "library limitation in ego-ekf filter.rs: an IMU silence loses the distance driven"]
+fn imu_half_second_gap() {
+    check_recovers("imu-gap@4+0.5");
+}
+
+#[test]
+fn imu_gaps_are_counted_and_harmless_to_the_state() {
+    check("imu-gap@4+0.5");
+    check("imu-gap@2+5");
+}
+
+#[test]
+#[ignore = "library limitation in ego-ekf filter.rs: an IMU silence loses the distance driven"]
+fn imu_silent_for_five_seconds() {
+    check_recovers("imu-gap@2+5");
+}
+
+#[test]
+fn wheels_and_flow_silent_for_five_seconds() {
+    check_recovers("wheel-gap@2+5");
+    check_recovers("flow-gap@2+5");
+}
+
+// ---- bus and chip ----
+
+#[test]
+fn encoder_wrap_around_at_high_speed() {
+    check_recovers("wheel-wrap@4+0.1");
+}
+
+#[test]
+fn spi_errors() {
+    check_recovers("wheel-spi@4x3,flow-spi@4.5x3");
+}
+
+#[test]
+fn flow_chip_brownout_wrong_product_id() {
+    check_recovers("flow-brownout@4");
+}
+
+#[test]
+fn encoder_parity_and_error_flag() {
+    check_recovers("wheel-parity@4x2,wheel-errflag@4.5");
+}
+
+// ---- vision ----
+
+#[test]
+fn bad_camera_frames() {
+    for kind in ["cam-black", "cam-saturated", "cam-uniform", "cam-blur"] {
+        check_recovers(&format!("{kind}@4"));
+    }
+}
+
+#[test]
+fn frozen_camera_frame() {
+    check_recovers("cam-frozen@4");
+}
+
+#[test]
+fn segmentation_without_ground() {
+    check_recovers("seg-noground@4x2,seg-unknown@5.5x2");
+}
+
+// ---- motion ----
+
+#[test]
+fn stuck_with_wheels_spinning() {
+    check_recovers("stuck@4+2");
+}
+
+#[test]
+fn lifted_with_wheels_free() {
+    check_recovers("lifted@4+2");
+}
+
+// LIBRARY BUG (ego-ekf, still detection; reported to the lead): with the
+// wheel counts frozen while the robot drives straight at constant speed on
+// wood, `WheelFusion::stopped()` says stopped and the IMU is quiet, so after
+// 0.2 s the filter declares the robot still and runs zero-velocity and
+// pose-equals-clone updates while the valid flow reports 0.3 m/s: the
+// estimate runs backwards (0.89 m -> 0.81 m between 4.2 s and 4.5 s) and
+// ends 0.35 m off at window end + 2 s (fault-free: 0.03 m). The state does
+// not heal: on the 12 s short scenario the accelerometer bias x ends at
+// 0.114 m/s^2 (true 0.05) and the wheel radii 5 % low, and for the 7 s after
+// the window about half of the wheel and flow samples are gated, with 16
+// flow velocity resets. The still detector (`zupt::detector`, called from
+// `filter.rs`) should require the flow, when valid, to agree that nothing
+// moves.
+#[test]
+#[ignore = "library bug in ego-ekf still detection: frozen wheel counts at constant speed trigger ZUPTs"]
+fn wheel_counts_frozen() {
+    check_recovers("wheel-stuck@4+0.5");
+}
+
+#[test]
+fn wheel_counts_frozen_are_counted_and_harmless_to_the_state() {
+    check("wheel-stuck@4+0.5");
+}
+
+#[test]
+fn cable_bump_on_wood() {
+    let (run, _) = check("bump@4");
+    let jolts = run.output.report["events"].as_array().unwrap();
+    assert!(
+        jolts.iter().any(|e| e["t"]
+            .as_u64()
+            .is_some_and(|t| (3_800_000_000..4_600_000_000).contains(&t))),
+        "no jolt at the cable: {jolts:?}"
+    );
+}
+
+// FINDING (root crate, src/frontend.rs; reported to the lead): after a frame
+// without trackable texture the front end keeps that frame as the reference,
+// so the next good frame is refused too and the camera path never learns
+// the motion of both frame pairs: one black frame at 4 s costs the VSLAM
+// trajectory 0.2 s of driving (final error 0.069 m against 0.009 m here;
+// the same on the 12 s short scenario, seed 1). Keeping the last frame with enough corners
+// as the reference would bridge the bad frame.
+#[test]
+#[ignore = "front-end finding: a bad camera frame loses the motion of two frame pairs"]
+fn one_bad_frame_costs_the_camera_path_nothing() {
+    let run = run("cam-black@4");
+    let final_error = |r: &Run| {
+        r.output
+            .errors
+            .iter()
+            .find(|(n, _)| *n == "vslam")
+            .map(|(_, e)| e.final_error)
+            .unwrap()
+    };
+    let (bad, good) = (final_error(&run), final_error(free()));
+    assert!(
+        bad <= 1.2 * good.max(0.02),
+        "VSLAM final error {bad:.3} m with one black frame, {good:.3} m without"
+    );
+}
