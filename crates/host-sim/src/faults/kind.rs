@@ -392,10 +392,18 @@ impl FaultKind {
             WheelWrap => {
                 "left wheel spins free 0.6 turns per read for DUR (0.1 s): the driver's counter refuses the jump -> out_of_range"
             }
-            CamBlack => "COUNT black frames -> low_quality (and the pair after)",
-            CamSaturated => "COUNT white frames -> low_quality (and the pair after)",
-            CamUniform => "COUNT mid-grey frames -> low_quality (and the pair after)",
-            CamBlur => "COUNT heavily blurred frames -> low_quality (and the pair after)",
+            CamBlack => {
+                "COUNT black frames -> low_quality (the next good frame is measured against the last good one)"
+            }
+            CamSaturated => {
+                "COUNT white frames -> low_quality (the next good frame is measured against the last good one)"
+            }
+            CamUniform => {
+                "COUNT mid-grey frames -> low_quality (the next good frame is measured against the last good one)"
+            }
+            CamBlur => {
+                "COUNT heavily blurred frames -> low_quality (the next good frame is measured against the last good one)"
+            }
             CamFrozen => "COUNT frames identical to the previous one -> fused (no motion seen)",
             SegNoGround => "COUNT label maps with no ground class -> low_quality",
             SegUnknown => "COUNT label maps of unknown labels only -> low_quality",

@@ -17,6 +17,7 @@ use crate::pngio::save_gray;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
+use traction::frontend::MAX_BRIDGED_FRAMES;
 use vslam_core::Timestamp;
 
 /// Everything that defines a simulated run.
@@ -188,7 +189,8 @@ pub fn generate_with(
             })
     };
     let mut previous_frame: Option<crate::pngio::GrayImage> = None;
-    let mut pair_after: Option<usize> = None;
+    // The last unusable frame's fault and how many came in a row.
+    let mut bad_run: (Option<usize>, usize) = (None, 0);
 
     let cam_dir = root.join("mav0/cam0/data");
     let seg_dir = root.join("mav0/seg0/data");
@@ -208,9 +210,16 @@ pub fn generate_with(
         {
             spoiled = Some(i);
         }
-        // A frame's outcome is its pair's (previous, this): after a frame
-        // without trackable texture the next pair is unusable too.
-        if let Some(i) = spoiled.or(pair_after.take()) {
+        // A frame's outcome is its pair's (previous, this). The front end
+        // keeps the last good frame as its reference across up to
+        // `MAX_BRIDGED_FRAMES` bad ones, so the pair after them is measured
+        // against it and fused; after a longer run the last bad frame became
+        // the reference and the pair after it is unusable too.
+        let pair_after = match spoiled {
+            None if bad_run.1 > usize::from(MAX_BRIDGED_FRAMES) => bad_run.0,
+            _ => None,
+        };
+        if let Some(i) = spoiled.or(pair_after) {
             faults.injected.push(Injected {
                 fault: i,
                 stream: Stream::Camera,
@@ -218,11 +227,15 @@ pub fn generate_with(
                 occurrence: 0,
             });
         }
-        pair_after = spoiled.filter(|i| {
+        let unusable = spoiled.filter(|i| {
             plan.faults
                 .get(*i)
                 .is_some_and(|f| f.kind.expected() != Expected::Fused)
         });
+        bad_run = match unusable {
+            Some(i) => (Some(i), bad_run.1 + 1),
+            None => (None, 0),
+        };
         save_gray(&path, &img)?;
         previous_frame = Some(img);
         frames.push(ImageEntry {
