@@ -4,7 +4,7 @@
 
 use nalgebra::Matrix3;
 
-use crate::state::{CP, CTH, Covariance, DIM, ErrorState, P, RB, TH};
+use crate::state::{CP, CTH, Covariance, DIM, ErrorState, P, RB, TH, Vec3};
 
 /// Makes `p` exactly symmetric by averaging it with its transpose.
 pub fn symmetrize(p: &mut Covariance) {
@@ -32,90 +32,68 @@ const ROTATION_INDICES: [usize; 9] = [
     RB + 2,
 ];
 
-/// Whether error-state index `i` lies in a rotation block.
-fn is_rotation(i: usize) -> bool {
-    ROTATIONS.iter().any(|&b| (b..b + 3).contains(&i))
-}
-
 /// The error reset after an update: `P <- G P G^T` with `G = I` except
 /// `I - [dtheta/2]x` on every rotation block (IMU attitude, clone attitude,
 /// body-to-robot rotation); Solà 2017, eq. 287.
 ///
-/// `G` touches only the nine rotation rows and columns. Their new columns
-/// `P G^T` are computed over all rows (six multiply-adds a row and block);
-/// the rotation rows of every other column follow by symmetry, and only the
-/// 9x9 rotation-rotation entries need the row operation `G (P G^T)`
-/// (computed on the upper triangle and mirrored, so the result is exactly
-/// symmetric if `P` was). About 800 multiply-adds and no 35x35 temporary.
+/// `G` touches only the nine rotation rows and columns: the rotation
+/// columns become `P G^T` in place (six multiply-adds a row and block); the
+/// rotation rows of the other columns are, by symmetry, those columns'
+/// entries (copied); only the 9x9 rotation-rotation entries need the row
+/// operation `G (P G^T)`, and their upper triangle is copied to the lower,
+/// so the result is exactly symmetric if `P` was. About 800 multiply-adds.
 pub fn reset(p: &mut Covariance, dx: &ErrorState) {
     let halves = ROTATIONS.map(|b| dx.fixed_rows::<3>(b) * 0.5);
     let cols = &mut p.data.0;
-    // New rotation columns `P G^T`: row (x, y, z) -> (I - [a]x) (x, y, z).
-    let mut new_cols = [[0.0f32; DIM]; 9];
-    for (k, (b, a)) in ROTATIONS.iter().zip(halves.iter()).enumerate() {
-        let (Some(src), Some(dst)) = (cols.get(*b..*b + 3), new_cols.get_mut(3 * k..3 * k + 3))
-        else {
+    // (x, y, z) -> (I - [a]x) (x, y, z); the same expression (and order of
+    // operations) in both passes.
+    let rotate = |a: &Vec3, x: f32, y: f32, z: f32| {
+        (
+            x + a.z * y - a.y * z,
+            y - a.z * x + a.x * z,
+            z + a.y * x - a.x * y,
+        )
+    };
+    for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+        let Some([c0, c1, c2]) = cols.get_mut(*b..*b + 3) else {
             continue;
         };
-        let ([c0, c1, c2], [d0, d1, d2]) = (src, dst) else {
-            continue;
-        };
-        for ((((x, y), z), (o0, o1)), o2) in c0
-            .iter()
-            .zip(c1.iter())
-            .zip(c2.iter())
-            .zip(d0.iter_mut().zip(d1.iter_mut()))
-            .zip(d2.iter_mut())
-        {
-            *o0 = x + a.z * y - a.y * z;
-            *o1 = y - a.z * x + a.x * z;
-            *o2 = z + a.y * x - a.x * y;
-        }
-    }
-    // The rotation-rotation entries: `G (P G^T)` on the rotation rows of the
-    // new columns, upper triangle (row index <= column index), mirrored.
-    let mut block = [[0.0f32; 9]; 9];
-    for (out, col) in block.iter_mut().zip(new_cols.iter()) {
-        for ((o, a), b) in out.chunks_exact_mut(3).zip(halves.iter()).zip(ROTATIONS) {
-            let m = |k: usize| col.get(b + k).copied().unwrap_or(0.0);
-            let (x, y, z) = (m(0), m(1), m(2));
-            if let [o0, o1, o2] = o {
-                *o0 = x + a.z * y - a.y * z;
-                *o1 = y - a.z * x + a.x * z;
-                *o2 = z + a.y * x - a.x * y;
+        let (ax, ay, az) = (a.x, a.y, a.z);
+        for i in 0..DIM {
+            if let (Some(x), Some(y), Some(z)) = (c0.get_mut(i), c1.get_mut(i), c2.get_mut(i)) {
+                let (x0, y0, z0) = (*x, *y, *z);
+                *x = x0 + az * y0 - ay * z0;
+                *y = y0 - az * x0 + ax * z0;
+                *z = z0 + ay * x0 - ax * y0;
             }
         }
     }
-    for (c, out) in block.iter().enumerate() {
-        for (r, v) in out.iter().enumerate() {
-            let upper = if r <= c {
-                *v
-            } else {
-                block.get(r).and_then(|o| o.get(c)).copied().unwrap_or(*v)
-            };
-            let Some(&ri) = ROTATION_INDICES.get(r) else {
-                continue;
-            };
-            if let Some(n) = new_cols.get_mut(c).and_then(|col| col.get_mut(ri)) {
-                *n = upper;
-            }
-        }
-    }
-    // Write the rotation columns, and their transpose into the rotation rows
-    // of every other column.
+    // Rotation rows: in the other columns, by symmetry, the new rotation
+    // columns' entries (copied from a snapshot of those columns); in the
+    // rotation columns, `G (P G^T)`.
+    let snapshot = ROTATION_INDICES.map(|c| cols.get(c).copied().unwrap_or([0.0; DIM]));
     for (j, col) in cols.iter_mut().enumerate() {
-        if is_rotation(j) {
-            continue;
-        }
-        for (&c, new) in ROTATION_INDICES.iter().zip(new_cols.iter()) {
-            if let (Some(dst), Some(v)) = (col.get_mut(c), new.get(j)) {
-                *dst = *v;
+        if ROTATION_INDICES.contains(&j) {
+            for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+                if let Some([x, y, z]) = col.get_mut(*b..*b + 3) {
+                    (*x, *y, *z) = rotate(a, *x, *y, *z);
+                }
+            }
+        } else {
+            for (&r, src) in ROTATION_INDICES.iter().zip(snapshot.iter()) {
+                if let (Some(dst), Some(v)) = (col.get_mut(r), src.get(j)) {
+                    *dst = *v;
+                }
             }
         }
     }
-    for (&c, new) in ROTATION_INDICES.iter().zip(new_cols.iter()) {
-        if let Some(col) = cols.get_mut(c) {
-            *col = *new;
+    // Mirror the rotation-rotation entries (row < column to row > column).
+    for (k, &c) in ROTATION_INDICES.iter().enumerate() {
+        for &r in ROTATION_INDICES.iter().skip(k + 1) {
+            let upper = cols.get(r).and_then(|col| col.get(c)).copied();
+            if let (Some(v), Some(dst)) = (upper, cols.get_mut(c).and_then(|col| col.get_mut(r))) {
+                *dst = v;
+            }
         }
     }
 }

@@ -234,7 +234,8 @@ pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) 
             *dst = at(src, j);
         }
     }
-    for (i, (col, qi)) in cols.iter_mut().zip(q.iter()).enumerate() {
+    let [q] = &q.data.0;
+    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate() {
         if let Some(d) = col.get_mut(i) {
             *d += qi;
         }

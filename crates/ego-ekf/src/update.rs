@@ -78,18 +78,6 @@ impl<const M: usize> Support<M> {
             .take(self.len)
     }
 
-    /// `H v` for a vector `v` given by its entries (`v(j)`), over the support.
-    fn apply(&self, v: impl Fn(usize) -> f32) -> [f32; M] {
-        let mut acc = [0.0f32; M];
-        for (j, h) in self.iter() {
-            let vj = v(j);
-            for (a, hv) in acc.iter_mut().zip(h) {
-                *a += vj * hv;
-            }
-        }
-        acc
-    }
-
     /// `P H^T`: column `r` is the sum over the nonzero `H[r, j]` of
     /// `H[r, j]` times column `j` of `P` (contiguous in nalgebra's storage).
     pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, M> {
@@ -231,18 +219,19 @@ fn update_with_support<const M: usize>(
     if !m.is_finite() || !all_finite(pht.as_slice()) {
         return Err(Reject::NonFinite);
     }
-    // S = H (P H^T) + R over the support of H, symmetrised.
+    // S = H (P H^T) + R over the support of H: column c gains
+    // (P H^T)[j, c] times column j of H, for each nonzero column j.
     let mut s = m.noise;
-    for (col, pht_col) in s.data.0.iter_mut().zip(pht.data.0.iter()) {
-        let hp = support.apply(|j| pht_col.get(j).copied().unwrap_or(0.0));
-        for (sv, hv) in col.iter_mut().zip(hp) {
-            *sv += hv;
+    for (j, h) in support.iter() {
+        for (s_col, pht_col) in s.data.0.iter_mut().zip(pht.data.0.iter()) {
+            let v = pht_col.get(j).copied().unwrap_or(0.0);
+            for (sv, hv) in s_col.iter_mut().zip(h) {
+                *sv += v * hv;
+            }
         }
     }
-    s = (s + s.transpose()) * 0.5;
-    let chol = nalgebra::Cholesky::new(s).ok_or(Reject::Degenerate)?;
-    let l = chol.l_dirty();
-    let inv_diag: [f32; M] = l.diagonal().map(|d| 1.0 / d).data.0[0];
+    let (l, inv_diag) = cholesky(&s).ok_or(Reject::Degenerate)?;
+    let l = &l;
     // z = L^-1 y: NIS = |z|^2.
     let mut z = m.residual.data.0[0].map(|v| [v]);
     forward_substitute(l, &inv_diag, &mut z);
@@ -265,16 +254,11 @@ fn update_with_support<const M: usize>(
             *red += v * v;
         }
     }
-    let valid = p
-        .data
-        .0
-        .iter()
-        .zip(reduction)
-        .enumerate()
-        .fold(true, |ok, (i, (col, red))| {
-            let after = col.get(i).copied().unwrap_or(0.0) - red;
-            ok & (after.is_finite() & (after > 0.0))
-        });
+    let mut valid = true;
+    for (i, (col, red)) in p.data.0.iter().zip(reduction).enumerate() {
+        let after = col.get(i).copied().unwrap_or(0.0) - red;
+        valid &= after > 0.0 && after < f32::INFINITY;
+    }
     if !valid {
         return Err(Reject::Degenerate);
     }
@@ -285,12 +269,65 @@ fn update_with_support<const M: usize>(
     if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
-    let wt = w.transpose();
-    downdate_upper(p, &w, &wt);
-    p.fill_lower_triangle_with_upper_triangle();
+    downdate(p, &w);
     x.inject(&dx);
     reset(p, &dx);
     Ok(UpdateReport { nis })
+}
+
+/// Copies the upper triangle of `p` onto the lower one: column `j` below
+/// the diagonal is row `j` of the columns to its right.
+pub fn mirror_upper_to_lower(p: &mut Covariance) {
+    let cols = &mut p.data.0;
+    for j in 0..DIM {
+        let Some((head, right)) = cols.split_at_mut_checked(j + 1) else {
+            continue;
+        };
+        let Some(col) = head.last_mut() else {
+            continue;
+        };
+        for (dst, src) in col.iter_mut().skip(j + 1).zip(right.iter()) {
+            *dst = src.get(j).copied().unwrap_or(*dst);
+        }
+    }
+}
+
+/// The Cholesky factor `L` (lower triangle; `S = L L^T`) of the symmetric
+/// part `(S + S^T) / 2` of `s`, and the inverses of its diagonal; `None`
+/// unless positive definite. Column by column (Cholesky-Banachiewicz).
+fn cholesky<const M: usize>(s: &SMatrix<f32, M, M>) -> Option<(SMatrix<f32, M, M>, [f32; M])> {
+    let mut l = SMatrix::<f32, M, M>::zeros();
+    let mut inv_diag = [0.0f32; M];
+    let sym = |r: usize, c: usize| -> f32 {
+        let a = s.data.0.get(c).and_then(|col| col.get(r)).copied();
+        let b = s.data.0.get(r).and_then(|col| col.get(c)).copied();
+        0.5 * (a.unwrap_or(f32::NAN) + b.unwrap_or(f32::NAN))
+    };
+    for c in 0..M {
+        let (done, rest) = l.data.0.split_at_mut_checked(c)?;
+        let col = rest.first_mut()?;
+        // Row c of the columns already done: L[c, k] for k < c.
+        let row_c = |k: &[f32; M]| k.get(c).copied().unwrap_or(0.0);
+        let d = sym(c, c) - done.iter().map(|k| row_c(k) * row_c(k)).sum::<f32>();
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let diag = libm::sqrtf(d);
+        let inv = 1.0 / diag;
+        *inv_diag.get_mut(c)? = inv;
+        for (r, v) in col.iter_mut().enumerate().skip(c) {
+            *v = if r == c {
+                diag
+            } else {
+                let dot = done
+                    .iter()
+                    .map(|k| k.get(r).copied().unwrap_or(0.0) * row_c(k))
+                    .sum::<f32>();
+                (sym(r, c) - dot) * inv
+            };
+        }
+    }
+    Some((l, inv_diag))
 }
 
 /// Solves `L V = B` in place (`B` becomes `V`) for the lower-triangular
@@ -322,17 +359,49 @@ fn forward_substitute<const M: usize, const N: usize>(
     }
 }
 
+/// `P <- P - W W^T` on every entry, column by column. Entries `(i, j)` and
+/// `(j, i)` are the same sum of the same products in the same order, so the
+/// result is exactly symmetric if `P` was. On a host with vector units this
+/// is cheaper than [`downdate_upper`] plus [`mirror_upper_to_lower`] (the
+/// mirror's strided copies cost more than the products it saves); on a
+/// scalar core (Cortex-M4) the triangle and mirror do less work.
+pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    for (j, col) in p.data.0.iter_mut().enumerate() {
+        // Row j of W.
+        let wj: [f32; M] = core::array::from_fn(|r| {
+            w.data
+                .0
+                .get(r)
+                .and_then(|c| c.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        });
+        for (i, pij) in col.iter_mut().enumerate() {
+            let mut sum = 0.0f32;
+            for (w_r, a) in w.data.0.iter().zip(wj) {
+                sum += w_r.get(i).copied().unwrap_or(0.0) * a;
+            }
+            *pij -= sum;
+        }
+    }
+}
+
 /// `P <- P - W W^T` on the upper triangle of `P` (row <= column), column by
-/// column; `wt` is `W^T` (its column `j` is row `j` of `W`). Each column's
+/// column. Each column's
 /// rows are rounded up to a multiple of eight so that the loops vectorise
 /// without scalar remainders; the few lower-triangle entries this also
 /// updates are overwritten by the mirror that follows.
-fn downdate_upper<const M: usize>(
-    p: &mut Covariance,
-    w: &SMatrix<f32, DIM, M>,
-    wt: &SMatrix<f32, M, DIM>,
-) {
-    for (j, (col, wj)) in p.data.0.iter_mut().zip(wt.data.0.iter()).enumerate() {
+pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    for (j, col) in p.data.0.iter_mut().enumerate() {
+        // Row j of W.
+        let wj: [f32; M] = core::array::from_fn(|r| {
+            w.data
+                .0
+                .get(r)
+                .and_then(|c| c.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        });
         let rows = ((j + 8) & !7).min(DIM);
         let Some(upper) = col.get_mut(..rows) else {
             continue;

@@ -16,7 +16,9 @@ use ego_ekf::propagate::{
 };
 use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{CTH, Covariance, DIM, ErrorState, NominalState, Quat, RB, TH, Vec3};
-use ego_ekf::update::{Measurement, Support, gated_update};
+use ego_ekf::update::{
+    Measurement, Support, downdate, downdate_upper, gated_update, mirror_upper_to_lower,
+};
 use ego_ekf::wheel::model::wheel_measurement;
 use ego_ekf::zupt::model::zupt_measurement;
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
@@ -353,5 +355,23 @@ fn propagation_equals_dense_product_on_spread_covariances() {
         let err = normalised_error(&fast, &dense, &dense);
         assert!(err < 1e-4, "propagation differs by {err}");
         assert_eq!(fast, fast.transpose());
+    }
+}
+
+#[test]
+fn triangle_downdate_and_mirror_equal_the_full_downdate() {
+    let mut rng = Rng(8);
+    for _ in 0..10 {
+        let p0 = random_covariance(&mut rng);
+        let w = SMatrix::<f32, DIM, 4>::from_fn(|_, _| 0.1 * rng.next());
+        let (mut full, mut triangle) = (p0, p0);
+        downdate(&mut full, &w);
+        downdate_upper(&mut triangle, &w);
+        mirror_upper_to_lower(&mut triangle);
+        assert_eq!(full, full.transpose());
+        assert_eq!(triangle, triangle.transpose());
+        let expected = p0 - w * w.transpose();
+        assert!((full - expected).abs().max() < 1e-6);
+        assert!((triangle - full).abs().max() < 1e-6);
     }
 }
