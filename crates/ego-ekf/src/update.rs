@@ -257,7 +257,7 @@ fn update_with_support<const M: usize>(
     let mut valid = true;
     for (i, (col, red)) in p.data.0.iter().zip(reduction).enumerate() {
         let after = col.get(i).copied().unwrap_or(0.0) - red;
-        valid &= after > 0.0 && after < f32::INFINITY;
+        valid &= (after > 0.0) & (after < f32::INFINITY);
     }
     if !valid {
         return Err(Reject::Degenerate);
@@ -269,7 +269,15 @@ fn update_with_support<const M: usize>(
     if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
+    // Vector hosts: the full downdate; scalar cores: half the products and a
+    // mirror. The two give the same bits (see `downdate`).
+    #[cfg(not(target_arch = "arm"))]
     downdate(p, &w);
+    #[cfg(target_arch = "arm")]
+    {
+        downdate_upper(p, &w);
+        mirror_upper_to_lower(p);
+    }
     x.inject(&dx);
     reset(p, &dx);
     Ok(UpdateReport { nis })
@@ -361,10 +369,11 @@ fn forward_substitute<const M: usize, const N: usize>(
 
 /// `P <- P - W W^T` on every entry, column by column. Entries `(i, j)` and
 /// `(j, i)` are the same sum of the same products in the same order, so the
-/// result is exactly symmetric if `P` was. On a host with vector units this
-/// is cheaper than [`downdate_upper`] plus [`mirror_upper_to_lower`] (the
-/// mirror's strided copies cost more than the products it saves); on a
-/// scalar core (Cortex-M4) the triangle and mirror do less work.
+/// result is exactly symmetric if `P` was, and bit for bit equal to
+/// [`downdate_upper`] followed by [`mirror_upper_to_lower`]. On a host with
+/// vector units this is the cheaper of the two (the mirror's strided copies
+/// cost more than the products it saves); on a scalar core (`target_arch =
+/// "arm"`, Cortex-M4) the update uses the triangle and the mirror.
 pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
     for (j, col) in p.data.0.iter_mut().enumerate() {
         // Row j of W.
