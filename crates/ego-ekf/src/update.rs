@@ -28,54 +28,52 @@ use vslam_core::Reject;
 use crate::covariance::reset;
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
-/// The columns where a measurement Jacobian `H` (`M` rows) is nonzero, in
-/// increasing order, with `H` restricted to them (column `k` of the
-/// restriction is column `index[k]` of `H`).
+/// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
+/// bit mask over the error state, with `H` borrowed.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Support<const M: usize> {
-    index: [usize; DIM],
-    columns: [[f32; M]; DIM],
-    len: usize,
+pub struct Support<'a, const M: usize> {
+    h: &'a SMatrix<f32, M, DIM>,
+    mask: u64,
 }
 
-impl<const M: usize> Support<M> {
+// The mask holds one bit per error-state column.
+const _: () = assert!(DIM <= 64);
+
+impl<'a, const M: usize> Support<'a, M> {
     /// The nonzero columns of `h`.
-    pub fn of(h: &SMatrix<f32, M, DIM>) -> Self {
-        let mut s = Support {
-            index: [0; DIM],
-            columns: [[0.0; M]; DIM],
-            len: 0,
-        };
+    pub fn of(h: &'a SMatrix<f32, M, DIM>) -> Self {
+        let mut mask = 0u64;
         for (j, col) in h.data.0.iter().enumerate() {
-            if col.iter().all(|v| *v == 0.0) {
-                continue;
-            }
-            if let (Some(i), Some(c)) = (s.index.get_mut(s.len), s.columns.get_mut(s.len)) {
-                *i = j;
-                *c = *col;
-                s.len += 1;
-            }
+            let nonzero = col.iter().fold(false, |any, v| any | (*v != 0.0));
+            mask |= u64::from(nonzero) << j;
         }
-        s
+        Support { h, mask }
     }
 
     /// Number of nonzero columns.
     pub fn len(&self) -> usize {
-        self.len
+        self.mask.count_ones() as usize
     }
 
     /// Whether `H` is zero.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.mask == 0
     }
 
-    /// `(j, H[.., j])` for every nonzero column `j`.
-    pub fn iter(&self) -> impl Iterator<Item = (usize, &[f32; M])> {
-        self.index
-            .iter()
-            .copied()
-            .zip(self.columns.iter())
-            .take(self.len)
+    /// `(j, H[.., j])` for every nonzero column `j`, in increasing `j`.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &'a [f32; M])> + use<'a, M> {
+        let h = self.h;
+        let mut bits = self.mask;
+        core::iter::from_fn(move || {
+            while bits != 0 {
+                let j = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if let Some(col) = h.data.0.get(j) {
+                    return Some((j, col));
+                }
+            }
+            None
+        })
     }
 
     /// `P H^T`: column `r` is the sum over the nonzero `H[r, j]` of
@@ -212,7 +210,7 @@ fn update_with_support<const M: usize>(
     x: &mut NominalState,
     p: &mut Covariance,
     m: &Measurement<M>,
-    support: &Support<M>,
+    support: &Support<'_, M>,
     pht: &SMatrix<f32, DIM, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
