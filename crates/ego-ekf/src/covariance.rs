@@ -32,6 +32,19 @@ const ROTATION_INDICES: [usize; 9] = [
     RB + 2,
 ];
 
+/// Whether each error-state index lies in a rotation block. Evaluated at
+/// compile time: an index out of range is a build error, never a panic.
+#[allow(clippy::indexing_slicing)]
+const IS_ROTATION: [bool; DIM] = {
+    let mut t = [false; DIM];
+    let mut k = 0;
+    while k < ROTATION_INDICES.len() {
+        t[ROTATION_INDICES[k]] = true;
+        k += 1;
+    }
+    t
+};
+
 /// The error reset after an update: `P <- G P G^T` with `G = I` except
 /// `I - [dtheta/2]x` on every rotation block (IMU attitude, clone attitude,
 /// body-to-robot rotation); Solà 2017, eq. 287.
@@ -72,8 +85,8 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
     // columns' entries (copied from a snapshot of those columns); in the
     // rotation columns, `G (P G^T)`.
     let snapshot = ROTATION_INDICES.map(|c| cols.get(c).copied().unwrap_or([0.0; DIM]));
-    for (j, col) in cols.iter_mut().enumerate() {
-        if ROTATION_INDICES.contains(&j) {
+    for (j, (col, rotation)) in cols.iter_mut().zip(IS_ROTATION).enumerate() {
+        if rotation {
             for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
                 if let Some([x, y, z]) = col.get_mut(*b..*b + 3) {
                     (*x, *y, *z) = rotate(a, *x, *y, *z);
