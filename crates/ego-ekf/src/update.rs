@@ -14,8 +14,10 @@
 //!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15);
 //! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
 //!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`;
-//! - `P <- P - W W^T` on the upper triangle only, mirrored: exactly
-//!   symmetric, half the multiply-adds, no 35x35 temporary;
+//! - `P <- P - W W^T` in place, no 35x35 temporary, exactly symmetric by
+//!   construction: on every entry on hosts with vector units ([`downdate`]),
+//!   on the upper triangle and mirrored on Cortex-M ([`downdate_upper`],
+//!   [`mirror_upper_to_lower`]; half the products, the same bits);
 //! - the reset touches only the rotation rows and columns
 //!   ([`crate::covariance::reset`]).
 //!
