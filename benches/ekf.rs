@@ -1,7 +1,10 @@
 //! Benchmarks of the ego-state EKF: one IMU propagation (nominal state and
 //! the full 35x35 covariance, block-structured; the dense `F P F^T + Q`
-//! reference for comparison) and one wheel update (full covariance).
-//! Setup (a filter warmed up on seeded samples) is outside the timer.
+//! reference for comparison) and one wheel update (full covariance; the
+//! update maths alone, structured and dense Joseph-form reference, for
+//! comparison). Setup (a filter warmed up on seeded samples) is outside the
+//! timer. Instruction counts of the same steps: `examples/ekf_steps.rs` of
+//! `ego-ekf` under callgrind.
 #![allow(missing_docs)]
 
 use std::hint::black_box;
@@ -10,7 +13,10 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use ego_ekf::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_dense,
 };
+use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{Quat, Vec3};
+use ego_ekf::update::gated_update;
+use ego_ekf::wheel::model::wheel_measurement;
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
 use vslam_core::Timestamp;
 use vslam_core::sensors::{ImuSample, WheelRates};
@@ -109,6 +115,22 @@ fn benches(c: &mut Criterion) {
                 let _ = black_box(f.fuse_wheel(black_box(&rates)));
                 f
             },
+            BatchSize::SmallInput,
+        )
+    });
+
+    let m = wheel_measurement(&x, &filter.angular_velocity(), &rates, &filter.grip());
+    c.bench_function("ekf/update maths (4 rows, structured)", |b| {
+        b.iter_batched_ref(
+            || (x, p0),
+            |(x, p)| gated_update(black_box(x), black_box(p), black_box(&m), None),
+            BatchSize::SmallInput,
+        )
+    });
+    c.bench_function("ekf/update maths (4 rows, dense Joseph reference)", |b| {
+        b.iter_batched_ref(
+            || (x, p0),
+            |(x, p)| gated_update_dense(black_box(x), black_box(p), black_box(&m), None),
             BatchSize::SmallInput,
         )
     });

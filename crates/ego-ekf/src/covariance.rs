@@ -4,7 +4,7 @@
 
 use nalgebra::Matrix3;
 
-use crate::state::{CP, CTH, Covariance, ErrorState, P, RB, TH};
+use crate::state::{CP, CTH, Covariance, DIM, ErrorState, P, RB, TH, Vec3};
 
 /// Makes `p` exactly symmetric by averaging it with its transpose.
 pub fn symmetrize(p: &mut Covariance) {
@@ -16,20 +16,110 @@ pub fn skew(v: &nalgebra::Vector3<f32>) -> Matrix3<f32> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
+/// The rotation blocks of the error state, whose errors the reset rotates.
+const ROTATIONS: [usize; 3] = [TH, CTH, RB];
+
+/// The nine error-state indices of the rotation blocks.
+const ROTATION_INDICES: [usize; 9] = [
+    TH,
+    TH + 1,
+    TH + 2,
+    CTH,
+    CTH + 1,
+    CTH + 2,
+    RB,
+    RB + 1,
+    RB + 2,
+];
+
+/// Whether each error-state index lies in a rotation block. Evaluated at
+/// compile time: an index out of range is a build error, never a panic.
+#[allow(clippy::indexing_slicing)]
+const IS_ROTATION: [bool; DIM] = {
+    let mut t = [false; DIM];
+    let mut k = 0;
+    while k < ROTATION_INDICES.len() {
+        t[ROTATION_INDICES[k]] = true;
+        k += 1;
+    }
+    t
+};
+
 /// The error reset after an update: `P <- G P G^T` with `G = I` except
 /// `I - [dtheta/2]x` on every rotation block (IMU attitude, clone attitude,
 /// body-to-robot rotation); Solà 2017, eq. 287.
+///
+/// `G` touches only the nine rotation rows and columns: the rotation
+/// columns become `P G^T` in place (six multiply-adds a row and block); the
+/// rotation rows of the other columns are, by symmetry, those columns'
+/// entries (copied); only the 9x9 rotation-rotation entries need the row
+/// operation `G (P G^T)`, and their upper triangle is copied to the lower,
+/// so the result is exactly symmetric if `P` was. About 800 multiply-adds.
 pub fn reset(p: &mut Covariance, dx: &ErrorState) {
-    let blocks = [TH, CTH, RB];
-    let gs = blocks.map(|i| Matrix3::identity() - skew(&(dx.fixed_rows::<3>(i) * 0.5)));
-    for (i, g) in blocks.iter().zip(gs.iter()) {
-        let rows = g * p.fixed_rows::<3>(*i);
-        p.fixed_rows_mut::<3>(*i).copy_from(&rows);
+    let halves = ROTATIONS.map(|b| dx.fixed_rows::<3>(b) * 0.5);
+    let cols = &mut p.data.0;
+    // (x, y, z) -> (I - [a]x) (x, y, z); the same expression (and order of
+    // operations) in both passes.
+    let rotate = |a: &Vec3, x: f32, y: f32, z: f32| {
+        (
+            x + a.z * y - a.y * z,
+            y - a.z * x + a.x * z,
+            z + a.y * x - a.x * y,
+        )
+    };
+    for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+        let Some([c0, c1, c2]) = cols.get_mut(*b..*b + 3) else {
+            continue;
+        };
+        let (ax, ay, az) = (a.x, a.y, a.z);
+        for i in 0..DIM {
+            if let (Some(x), Some(y), Some(z)) = (c0.get_mut(i), c1.get_mut(i), c2.get_mut(i)) {
+                let (x0, y0, z0) = (*x, *y, *z);
+                *x = x0 + az * y0 - ay * z0;
+                *y = y0 - az * x0 + ax * z0;
+                *z = z0 + ay * x0 - ax * y0;
+            }
+        }
     }
-    for (i, g) in blocks.iter().zip(gs.iter()) {
-        let cols = p.fixed_columns::<3>(*i) * g.transpose();
-        p.fixed_columns_mut::<3>(*i).copy_from(&cols);
+    // Rotation rows: in the other columns, by symmetry, the new rotation
+    // columns' entries (copied from a snapshot of those columns); in the
+    // rotation columns, `G (P G^T)`.
+    let snapshot = ROTATION_INDICES.map(|c| cols.get(c).copied().unwrap_or([0.0; DIM]));
+    for (j, (col, rotation)) in cols.iter_mut().zip(IS_ROTATION).enumerate() {
+        if rotation {
+            for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+                if let Some([x, y, z]) = col.get_mut(*b..*b + 3) {
+                    (*x, *y, *z) = rotate(a, *x, *y, *z);
+                }
+            }
+        } else {
+            for (&r, src) in ROTATION_INDICES.iter().zip(snapshot.iter()) {
+                if let (Some(dst), Some(v)) = (col.get_mut(r), src.get(j)) {
+                    *dst = *v;
+                }
+            }
+        }
     }
+    // Mirror the rotation-rotation entries (row < column to row > column).
+    for (k, &c) in ROTATION_INDICES.iter().enumerate() {
+        for &r in ROTATION_INDICES.iter().skip(k + 1) {
+            let upper = cols.get(r).and_then(|col| col.get(c)).copied();
+            if let (Some(v), Some(dst)) = (upper, cols.get_mut(c).and_then(|col| col.get_mut(r))) {
+                *dst = v;
+            }
+        }
+    }
+}
+
+/// The reset written as the dense product `G P G^T` (the reference the
+/// tests compare [`reset`] against).
+pub fn reset_dense(p: &mut Covariance, dx: &ErrorState) {
+    let mut g = Covariance::identity();
+    for b in ROTATIONS {
+        let block = Matrix3::identity() - skew(&(dx.fixed_rows::<3>(b) * 0.5));
+        g.fixed_view_mut::<3, 3>(b, b).copy_from(&block);
+    }
+    *p = g * *p * g.transpose();
 }
 
 /// Replaces the clone's rows and columns by the current pose's, so that the
@@ -37,24 +127,40 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
 /// taken as a measurement of the pose with that tiny variance, which keeps
 /// `P` positive definite in `f32` (an exact copy makes it singular).
 pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude: f32) {
-    // Columns (contiguous) first, then the rows by symmetry, then the
-    // clone-clone block from the pose-pose block.
-    let cols_p = p.fixed_columns::<3>(P).into_owned();
-    let cols_th = p.fixed_columns::<3>(TH).into_owned();
-    p.fixed_columns_mut::<3>(CP).copy_from(&cols_p);
-    p.fixed_columns_mut::<3>(CTH).copy_from(&cols_th);
-    let rows = p.fixed_columns::<6>(CP).transpose();
-    p.fixed_rows_mut::<6>(CP).copy_from(&rows);
-    let pp = p.fixed_view::<3, 3>(P, P).into_owned();
-    let pt = p.fixed_view::<3, 3>(P, TH).into_owned();
-    let tt = p.fixed_view::<3, 3>(TH, TH).into_owned();
-    let i3 = Matrix3::<f32>::identity();
-    p.fixed_view_mut::<3, 3>(CP, CP)
-        .copy_from(&(pp + i3 * copy_var_position));
-    p.fixed_view_mut::<3, 3>(CP, CTH).copy_from(&pt);
-    p.fixed_view_mut::<3, 3>(CTH, CP).copy_from(&pt.transpose());
-    p.fixed_view_mut::<3, 3>(CTH, CTH)
-        .copy_from(&(tt + i3 * copy_var_attitude));
+    let cols = &mut p.data.0;
+    // Columns: the clone's columns are the pose's (all rows).
+    let (head, clone) = cols.split_at_mut(CP);
+    let pose = head
+        .iter()
+        .skip(P)
+        .take(3)
+        .chain(head.iter().skip(TH).take(3));
+    for (dst, src) in clone.iter_mut().zip(pose) {
+        *dst = *src;
+    }
+    // Rows: every column's clone rows are its pose rows (by symmetry, the
+    // pose columns' entries); for the clone columns themselves that gives
+    // the pose-pose block.
+    const POSE_INDICES: [usize; 6] = [P, P + 1, P + 2, TH, TH + 1, TH + 2];
+    for col in cols.iter_mut() {
+        let vals = POSE_INDICES.map(|i| col.get(i).copied().unwrap_or(0.0));
+        for (dst, v) in col.iter_mut().skip(CP).zip(vals) {
+            *dst = v;
+        }
+    }
+    let vars = [
+        copy_var_position,
+        copy_var_position,
+        copy_var_position,
+        copy_var_attitude,
+        copy_var_attitude,
+        copy_var_attitude,
+    ];
+    for (k, (col, var)) in cols.iter_mut().skip(CP).zip(vars).enumerate() {
+        if let Some(d) = col.get_mut(CP + k) {
+            *d += var;
+        }
+    }
 }
 
 // The clone's position and attitude are adjacent.

@@ -9,6 +9,7 @@
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone, checks;
+//!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
 //! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*;
 //! - [`filter`]: [`EgoEkf`], the type users call.
@@ -31,6 +32,7 @@ pub mod flow;
 pub mod grip;
 pub mod init;
 pub mod propagate;
+pub mod reference;
 pub mod state;
 pub mod surface;
 pub mod update;

@@ -96,60 +96,150 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
 }
 
 // The block step below relies on position, velocity and attitude being the
-// first nine error-state components.
-const _: () = assert!(P == 0 && V == 3 && TH == 6);
+// first nine error-state components, followed by the accelerometer bias, the
+// gyroscope bias and gravity.
+const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G == 15);
+
+/// Entry `i` of a covariance column (`0.0` outside; never outside for the
+/// loops below, whose `i` runs over `0..DIM`, so the check compiles away).
+#[inline(always)]
+fn at(column: &[f32; DIM], i: usize) -> f32 {
+    column.get(i).copied().unwrap_or(0.0)
+}
 
 /// `P <- F P F^T + Q` for a symmetric `P`, using only the non-identity
 /// blocks of `F`.
 ///
 /// `F` changes only the block rows and columns of position, velocity and
-/// attitude. So: those block columns are replaced by `P F^T` over all rows
-/// (contiguous columns in nalgebra's column-major storage); the block rows of
-/// every other column follow by symmetry (a transposed copy); only the 9x9
-/// block of those rows and columns needs the row operations `F (P F^T)`.
-/// The result is exactly symmetric if `P` was.
+/// attitude. So: those nine columns are replaced by `P F^T` over all rows
+/// (contiguous columns in nalgebra's column-major storage, one pass per
+/// block with every product in registers); the nine rows of every other
+/// column follow by symmetry (a transposed copy); only the 9x9 block of
+/// those rows and columns needs the row operations `F (P F^T)`, computed on
+/// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
+/// dense 85,000. The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
-    // Columns: P <- P F^T, one row at a time, in registers: each row's new
-    // position, velocity and attitude entries from its first 18 entries.
-    let (a_vth, a_vba, a_thth) = (
-        f.f_vth.transpose(),
-        f.f_vba.transpose(),
-        f.f_thth.transpose(),
-    );
-    for i in 0..DIM {
-        let r = p.fixed_view::<1, 18>(i, 0).into_owned();
-        let r_v = r.fixed_columns::<3>(V);
-        let r_th = r.fixed_columns::<3>(TH);
-        let new_p = r.fixed_columns::<3>(P) + r_v * dt;
-        let new_v =
-            r_v + r_th * a_vth + r.fixed_columns::<3>(BA) * a_vba + r.fixed_columns::<3>(G) * dt;
-        let new_th = r_th * a_thth - r.fixed_columns::<3>(BG) * dt;
-        let mut out = p.fixed_view_mut::<1, 9>(i, 0);
-        out.fixed_columns_mut::<3>(P).copy_from(&new_p);
-        out.fixed_columns_mut::<3>(V).copy_from(&new_v);
-        out.fixed_columns_mut::<3>(TH).copy_from(&new_th);
+    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
+    {
+        let [
+            p0,
+            p1,
+            p2,
+            v0,
+            v1,
+            v2,
+            t0,
+            t1,
+            t2,
+            a0,
+            a1,
+            a2,
+            w0,
+            w1,
+            w2,
+            g0,
+            g1,
+            g2,
+            ..,
+        ] = &mut p.data.0;
+        // Columns of `P F^T`, in the order that reads only old values:
+        // position (reads velocity), velocity (reads attitude), attitude.
+        for (i, ((c0, c1), c2)) in p0
+            .iter_mut()
+            .zip(p1.iter_mut())
+            .zip(p2.iter_mut())
+            .enumerate()
+        {
+            *c0 += dt * at(v0, i);
+            *c1 += dt * at(v1, i);
+            *c2 += dt * at(v2, i);
+        }
+        for (i, ((c0, c1), c2)) in v0
+            .iter_mut()
+            .zip(v1.iter_mut())
+            .zip(v2.iter_mut())
+            .enumerate()
+        {
+            let t = Vec3::new(at(t0, i), at(t1, i), at(t2, i));
+            let a = Vec3::new(at(a0, i), at(a1, i), at(a2, i));
+            let g = Vec3::new(at(g0, i), at(g1, i), at(g2, i));
+            let v = Vec3::new(*c0, *c1, *c2) + fvt * t + fva * a + g * dt;
+            (*c0, *c1, *c2) = (v.x, v.y, v.z);
+        }
+        for (i, ((c0, c1), c2)) in t0
+            .iter_mut()
+            .zip(t1.iter_mut())
+            .zip(t2.iter_mut())
+            .enumerate()
+        {
+            let w = Vec3::new(at(w0, i), at(w1, i), at(w2, i));
+            let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
+            (*c0, *c1, *c2) = (t.x, t.y, t.z);
+        }
     }
-    // Rows of the other columns: by symmetry, the transposed new columns.
-    let moved = p.fixed_view::<{ DIM - 9 }, 9>(9, 0).transpose();
-    p.fixed_view_mut::<9, { DIM - 9 }>(0, 9).copy_from(&moved);
-    // The 9x9 block: F (P F^T) on its rows, with the rows BA, BG, G of these
-    // columns taken from the columns just computed.
-    let a = p.fixed_columns::<9>(P).into_owned();
-    let r_v = a.fixed_rows::<3>(V);
-    let r_th = a.fixed_rows::<3>(TH);
-    let new_p = a.fixed_rows::<3>(P) + r_v * dt;
-    let new_v = r_v + f.f_vth * r_th + f.f_vba * a.fixed_rows::<3>(BA) + a.fixed_rows::<3>(G) * dt;
-    let new_th = f.f_thth * r_th - a.fixed_rows::<3>(BG) * dt;
-    p.fixed_view_mut::<3, 9>(P, P).copy_from(&new_p);
-    p.fixed_view_mut::<3, 9>(V, P).copy_from(&new_v);
-    p.fixed_view_mut::<3, 9>(TH, P).copy_from(&new_th);
-    // Make the 9x9 block exactly symmetric (rounding of the two products).
-    let block = p.fixed_view::<9, 9>(P, P).into_owned();
-    p.fixed_view_mut::<9, 9>(P, P)
-        .copy_from(&((block + block.transpose()) * 0.5));
-    let diagonal = p.diagonal() + q;
-    p.set_diagonal(&diagonal);
+    let cols = &mut p.data.0;
+    // The 9x9 block: F (P F^T) on its rows, column by column, from rows
+    // 0..18 of the new columns (the rows BA, BG, G are final already).
+    let mut block = [[0.0f32; 9]; 9];
+    for (out, col) in block.iter_mut().zip(cols.iter()) {
+        let [
+            m0,
+            m1,
+            m2,
+            m3,
+            m4,
+            m5,
+            m6,
+            m7,
+            m8,
+            m9,
+            m10,
+            m11,
+            m12,
+            m13,
+            m14,
+            m15,
+            m16,
+            m17,
+            ..,
+        ] = *col;
+        let t = Vec3::new(m6, m7, m8);
+        let new_p = Vec3::new(m0, m1, m2) + Vec3::new(m3, m4, m5) * dt;
+        let new_v = Vec3::new(m3, m4, m5)
+            + fvt * t
+            + fva * Vec3::new(m9, m10, m11)
+            + Vec3::new(m15, m16, m17) * dt;
+        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt;
+        *out = [
+            new_p.x, new_p.y, new_p.z, new_v.x, new_v.y, new_v.z, new_t.x, new_t.y, new_t.z,
+        ];
+    }
+    // Write the block's upper triangle (row <= column) and its mirror, so
+    // the block is exactly symmetric despite the rounding of two products.
+    for (c, (col, out)) in cols.iter_mut().zip(block.iter()).enumerate() {
+        for (r, (dst, src)) in col.iter_mut().zip(out.iter()).enumerate() {
+            *dst = if r <= c {
+                *src
+            } else {
+                block.get(r).and_then(|o| o.get(c)).copied().unwrap_or(*src)
+            };
+        }
+    }
+    // Rows 0..9 of the other columns: by symmetry, the new columns' entries.
+    let (imu, rest) = cols.split_at_mut(9);
+    for (j, col) in rest.iter_mut().enumerate() {
+        let j = j + 9;
+        for (dst, src) in col.iter_mut().zip(imu.iter()) {
+            *dst = at(src, j);
+        }
+    }
+    let [q] = &q.data.0;
+    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate() {
+        if let Some(d) = col.get_mut(i) {
+            *d += qi;
+        }
+    }
 }
 
 /// The dense reference `P <- F P F^T + Q` (about 85 000 multiply-adds).

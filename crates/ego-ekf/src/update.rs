@@ -5,16 +5,109 @@
 //! normalised innovation squared `y^T S^-1 y` tested against a chi-square
 //! gate, gain `K = P H^T S^-1`, error estimate `dx = K y` injected into the
 //! nominal state, covariance in the symmetric form
-//! `P <- P - K S K^T = P - K (P H^T)^T` (equal to the Joseph form for the
-//! optimal gain; cheaper, and exactly symmetric after [`symmetrize`]), then
+//! `P <- P - K S K^T` (equal to the Joseph form for the optimal gain), then
 //! the error reset `P <- G P G^T`. An update that would leave a
 //! non-positive variance is refused and the state left untouched.
+//!
+//! The arithmetic follows the structure, as PX4 EKF2's generated code does:
+//! - `P H^T` only over the columns where `H` is nonzero ([`Support`]; the
+//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15);
+//! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
+//!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`;
+//! - `P <- P - W W^T` in place, no 35x35 temporary, exactly symmetric by
+//!   construction: on every entry on hosts with vector units ([`downdate`]),
+//!   on the upper triangle and mirrored on Cortex-M ([`downdate_upper`],
+//!   [`mirror_upper_to_lower`]; half the products, the same bits);
+//! - the reset touches only the rotation rows and columns
+//!   ([`crate::covariance::reset`]).
+//!
+//! [`crate::reference::gated_update_dense`] is the straightforward dense
+//! formula (Joseph form) the tests compare against.
 
 use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
-use crate::covariance::{reset, symmetrize};
+use crate::covariance::reset;
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
+
+/// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
+/// bit mask over the error state, with `H` borrowed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Support<'a, const M: usize> {
+    h: &'a SMatrix<f32, M, DIM>,
+    mask: u64,
+}
+
+// The mask holds one bit per error-state column.
+const _: () = assert!(DIM <= 64);
+
+impl<'a, const M: usize> Support<'a, M> {
+    /// The nonzero columns of `h`.
+    pub fn of(h: &'a SMatrix<f32, M, DIM>) -> Self {
+        let mut mask = 0u64;
+        for (j, col) in h.data.0.iter().enumerate() {
+            let nonzero = col.iter().fold(false, |any, v| any | (*v != 0.0));
+            mask |= u64::from(nonzero) << j;
+        }
+        Support { h, mask }
+    }
+
+    /// Number of nonzero columns.
+    pub fn len(&self) -> usize {
+        self.mask.count_ones() as usize
+    }
+
+    /// Whether `H` is zero.
+    pub fn is_empty(&self) -> bool {
+        self.mask == 0
+    }
+
+    /// `(j, H[.., j])` for every nonzero column `j`, in increasing `j`.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &'a [f32; M])> + use<'a, M> {
+        let h = self.h;
+        let mut bits = self.mask;
+        core::iter::from_fn(move || {
+            while bits != 0 {
+                let j = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if let Some(col) = h.data.0.get(j) {
+                    return Some((j, col));
+                }
+            }
+            None
+        })
+    }
+
+    /// `P H^T`: column `r` is the sum over the nonzero `H[r, j]` of
+    /// `H[r, j]` times column `j` of `P` (contiguous in nalgebra's storage).
+    pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, M> {
+        let mut pht = SMatrix::<f32, DIM, M>::zeros();
+        for (j, h) in self.iter() {
+            let Some(pj) = p.data.0.get(j) else {
+                continue;
+            };
+            for (out, &hv) in pht.data.0.iter_mut().zip(h) {
+                if hv != 0.0 {
+                    axpy(out, hv, pj);
+                }
+            }
+        }
+        pht
+    }
+}
+
+/// `y <- y + a x` over a whole column.
+#[inline(always)]
+fn axpy(y: &mut [f32; DIM], a: f32, x: &[f32; DIM]) {
+    for (y, x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
+
+/// Whether every entry is finite (branch-free, so it vectorises).
+fn all_finite(values: &[f32]) -> bool {
+    values.iter().fold(true, |ok, v| ok & v.is_finite())
+}
 
 /// A linearised measurement of dimension `M`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,9 +123,9 @@ pub struct Measurement<const M: usize> {
 impl<const M: usize> Measurement<M> {
     /// Whether residual, Jacobian and noise are all finite.
     pub fn is_finite(&self) -> bool {
-        self.residual.iter().all(|v| v.is_finite())
-            && self.h.iter().all(|v| v.is_finite())
-            && self.noise.iter().all(|v| v.is_finite())
+        all_finite(self.residual.as_slice())
+            && all_finite(self.h.as_slice())
+            && all_finite(self.noise.as_slice())
     }
 
     /// The variance of the `row`-th residual component under `p`:
@@ -46,6 +139,12 @@ impl<const M: usize> Measurement<M> {
         let ph = p * h.transpose();
         let r = self.noise.get((row, row)).copied()?;
         Some((h * ph).sum() + r)
+    }
+
+    /// `P H^T` for a symmetric `P`, over the nonzero columns of `H` only
+    /// (see [`Support::p_ht`]).
+    pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, M> {
+        Support::of(&self.h).p_ht(p)
     }
 
     /// Keeps the rows `rows` (a sub-measurement).
@@ -91,8 +190,9 @@ pub fn gated_update<const M: usize>(
     if !m.is_finite() {
         return Err(Reject::NonFinite);
     }
-    let pht: SMatrix<f32, DIM, M> = *p * m.h.transpose();
-    gated_update_with(x, p, m, &pht, gate)
+    let support = Support::of(&m.h);
+    let pht = support.p_ht(p);
+    update_with_support(x, p, m, &support, &pht, gate)
 }
 
 /// [`gated_update`] with `P H^T` already computed by the caller (who used
@@ -104,39 +204,224 @@ pub fn gated_update_with<const M: usize>(
     pht: &SMatrix<f32, DIM, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
-    if !m.is_finite() || !pht.iter().all(|v| v.is_finite()) {
+    update_with_support(x, p, m, &Support::of(&m.h), pht, gate)
+}
+
+/// The update proper, with the support of `H` and `P H^T` known.
+fn update_with_support<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    m: &Measurement<M>,
+    support: &Support<'_, M>,
+    pht: &SMatrix<f32, DIM, M>,
+    gate: Option<f32>,
+) -> Result<UpdateReport, Reject> {
+    if !m.is_finite() || !all_finite(pht.as_slice()) {
         return Err(Reject::NonFinite);
     }
-    let mut s = m.h * pht + m.noise;
-    s = (s + s.transpose()) * 0.5;
-    let chol = nalgebra::Cholesky::new(s).ok_or(Reject::Degenerate)?;
-    let s_inv_y = chol.solve(&m.residual);
-    let nis = m.residual.dot(&s_inv_y);
+    // S = H (P H^T) + R over the support of H: column c gains
+    // (P H^T)[j, c] times column j of H, for each nonzero column j.
+    let mut s = m.noise;
+    for (j, h) in support.iter() {
+        for (s_col, pht_col) in s.data.0.iter_mut().zip(pht.data.0.iter()) {
+            let v = pht_col.get(j).copied().unwrap_or(0.0);
+            for (sv, hv) in s_col.iter_mut().zip(h) {
+                *sv += v * hv;
+            }
+        }
+    }
+    let (l, inv_diag) = cholesky(&s).ok_or(Reject::Degenerate)?;
+    let l = &l;
+    // z = L^-1 y: NIS = |z|^2.
+    let mut z = m.residual.data.0[0].map(|v| [v]);
+    forward_substitute(l, &inv_diag, &mut z);
+    let nis = z.iter().map(|[v]| v * v).sum::<f32>();
     if !nis.is_finite() {
         return Err(Reject::Degenerate);
     }
     if gate.is_some_and(|g| nis > g) {
         return Err(Reject::Gated);
     }
-    // K^T = S^-1 (P H^T)^T.
-    let kt: SMatrix<f32, M, DIM> = chol.solve(&pht.transpose());
-    // Refuse an update that would leave a non-positive variance.
-    let reductions = pht.component_mul(&kt.transpose()).column_sum();
-    let valid = p
-        .diagonal()
-        .iter()
-        .zip(reductions.iter())
-        .all(|(d, r)| (d - r).is_finite() && d - r > 0.0);
+    // W = P H^T L^-T, so that K S K^T = W W^T and K y = W z: the columns of
+    // `P H^T` combined by forward substitution, whole columns at a time.
+    let mut w = *pht;
+    forward_substitute(l, &inv_diag, &mut w.data.0);
+    // Refuse an update that would leave a non-positive variance: the
+    // diagonal of `W W^T` against that of `P`.
+    let mut reduction = [0.0f32; DIM];
+    for w_r in w.data.0.iter() {
+        for (red, v) in reduction.iter_mut().zip(w_r) {
+            *red += v * v;
+        }
+    }
+    let mut valid = true;
+    for (i, (col, red)) in p.data.0.iter().zip(reduction).enumerate() {
+        let after = col.get(i).copied().unwrap_or(0.0) - red;
+        valid &= (after > 0.0) & (after < f32::INFINITY);
+    }
     if !valid {
         return Err(Reject::Degenerate);
     }
-    let dx: ErrorState = kt.transpose() * m.residual;
-    if !dx.iter().all(|v| v.is_finite()) {
+    let mut dx = ErrorState::zeros();
+    for (w_r, [zr]) in w.data.0.iter().zip(z) {
+        axpy(&mut dx.data.0[0], zr, w_r);
+    }
+    if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
-    *p -= pht * kt;
+    // Vector hosts: the full downdate; scalar cores: half the products and a
+    // mirror. The two give the same bits (see `downdate`).
+    #[cfg(not(target_arch = "arm"))]
+    downdate(p, &w);
+    #[cfg(target_arch = "arm")]
+    {
+        downdate_upper(p, &w);
+        mirror_upper_to_lower(p);
+    }
     x.inject(&dx);
     reset(p, &dx);
-    symmetrize(p);
     Ok(UpdateReport { nis })
+}
+
+/// Copies the upper triangle of `p` onto the lower one: column `j` below
+/// the diagonal is row `j` of the columns to its right.
+pub fn mirror_upper_to_lower(p: &mut Covariance) {
+    let cols = &mut p.data.0;
+    for j in 0..DIM {
+        let Some((head, right)) = cols.split_at_mut_checked(j + 1) else {
+            continue;
+        };
+        let Some(col) = head.last_mut() else {
+            continue;
+        };
+        for (dst, src) in col.iter_mut().skip(j + 1).zip(right.iter()) {
+            *dst = src.get(j).copied().unwrap_or(*dst);
+        }
+    }
+}
+
+/// The Cholesky factor `L` (lower triangle; `S = L L^T`) of the symmetric
+/// part `(S + S^T) / 2` of `s`, and the inverses of its diagonal; `None`
+/// unless positive definite. Column by column (Cholesky-Banachiewicz).
+fn cholesky<const M: usize>(s: &SMatrix<f32, M, M>) -> Option<(SMatrix<f32, M, M>, [f32; M])> {
+    let mut l = SMatrix::<f32, M, M>::zeros();
+    let mut inv_diag = [0.0f32; M];
+    let sym = |r: usize, c: usize| -> f32 {
+        let a = s.data.0.get(c).and_then(|col| col.get(r)).copied();
+        let b = s.data.0.get(r).and_then(|col| col.get(c)).copied();
+        0.5 * (a.unwrap_or(f32::NAN) + b.unwrap_or(f32::NAN))
+    };
+    for c in 0..M {
+        let (done, rest) = l.data.0.split_at_mut_checked(c)?;
+        let col = rest.first_mut()?;
+        // Row c of the columns already done: L[c, k] for k < c.
+        let row_c = |k: &[f32; M]| k.get(c).copied().unwrap_or(0.0);
+        let d = sym(c, c) - done.iter().map(|k| row_c(k) * row_c(k)).sum::<f32>();
+        if !(d > 0.0 && d.is_finite()) {
+            return None;
+        }
+        let diag = libm::sqrtf(d);
+        let inv = 1.0 / diag;
+        *inv_diag.get_mut(c)? = inv;
+        for (r, v) in col.iter_mut().enumerate().skip(c) {
+            *v = if r == c {
+                diag
+            } else {
+                let dot = done
+                    .iter()
+                    .map(|k| k.get(r).copied().unwrap_or(0.0) * row_c(k))
+                    .sum::<f32>();
+                (sym(r, c) - dot) * inv
+            };
+        }
+    }
+    Some((l, inv_diag))
+}
+
+/// Solves `L V = B` in place (`B` becomes `V`) for the lower-triangular
+/// `L` (upper part ignored), given the inverses of its diagonal, where `B`
+/// is given by its `M` rows of `N` entries each: row `k` is scaled, then
+/// subtracted from the rows below it (whole rows at a time, so the loops
+/// vectorise over `N`).
+#[inline(always)]
+fn forward_substitute<const M: usize, const N: usize>(
+    l: &SMatrix<f32, M, M>,
+    inv_diag: &[f32; M],
+    b: &mut [[f32; N]; M],
+) {
+    for (k, (l_col, inv)) in l.data.0.iter().zip(inv_diag).enumerate() {
+        let Some((head, below)) = b.split_at_mut_checked(k + 1) else {
+            continue;
+        };
+        let Some(row_k) = head.last_mut() else {
+            continue;
+        };
+        for v in row_k.iter_mut() {
+            *v *= inv;
+        }
+        for (row_r, l_rk) in below.iter_mut().zip(l_col.iter().skip(k + 1)) {
+            for (v, vk) in row_r.iter_mut().zip(row_k.iter()) {
+                *v -= l_rk * vk;
+            }
+        }
+    }
+}
+
+/// `P <- P - W W^T` on every entry, column by column. Entries `(i, j)` and
+/// `(j, i)` are the same sum of the same products in the same order, so the
+/// result is exactly symmetric if `P` was, and bit for bit equal to
+/// [`downdate_upper`] followed by [`mirror_upper_to_lower`]. On a host with
+/// vector units this is the cheaper of the two (the mirror's strided copies
+/// cost more than the products it saves); on a scalar core (`target_arch =
+/// "arm"`, Cortex-M4) the update uses the triangle and the mirror.
+pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    for (j, col) in p.data.0.iter_mut().enumerate() {
+        // Row j of W.
+        let wj: [f32; M] = core::array::from_fn(|r| {
+            w.data
+                .0
+                .get(r)
+                .and_then(|c| c.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        });
+        for (i, pij) in col.iter_mut().enumerate() {
+            let mut sum = 0.0f32;
+            for (w_r, a) in w.data.0.iter().zip(wj) {
+                sum += w_r.get(i).copied().unwrap_or(0.0) * a;
+            }
+            *pij -= sum;
+        }
+    }
+}
+
+/// `P <- P - W W^T` on the upper triangle of `P` (row <= column), column by
+/// column. Each column's
+/// rows are rounded up to a multiple of eight so that the loops vectorise
+/// without scalar remainders; the few lower-triangle entries this also
+/// updates are overwritten by the mirror that follows.
+pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    for (j, col) in p.data.0.iter_mut().enumerate() {
+        // Row j of W.
+        let wj: [f32; M] = core::array::from_fn(|r| {
+            w.data
+                .0
+                .get(r)
+                .and_then(|c| c.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        });
+        let rows = ((j + 8) & !7).min(DIM);
+        let Some(upper) = col.get_mut(..rows) else {
+            continue;
+        };
+        // One pass, all `M` products of an entry in registers.
+        for (i, pij) in upper.iter_mut().enumerate() {
+            let mut sum = 0.0f32;
+            for (w_r, a) in w.data.0.iter().zip(wj) {
+                sum += w_r.get(i).copied().unwrap_or(0.0) * a;
+            }
+            *pij -= sum;
+        }
+    }
 }

@@ -111,7 +111,7 @@ impl WheelFusion {
             return Err(Reject::NonFinite);
         }
         // P H^T once: for the per-row gate and for the update.
-        let pht = *p * m.h.transpose();
+        let pht = m.p_ht(p);
         let variance = |row: usize| -> Option<f32> {
             let hp = m.h.row(row) * pht.column(row);
             Some(hp.sum() + *m.noise.get((row, row))?)
