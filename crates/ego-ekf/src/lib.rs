@@ -11,6 +11,8 @@
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone, checks;
 //! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*;
+//! - [`recovery`]: out of a wheel lockout from the most trusted source;
+//!   [`gap`]: bridging an IMU gap;
 //! - [`filter`]: [`EgoEkf`], the type users call.
 #![no_std]
 #![cfg_attr(
@@ -28,9 +30,11 @@ pub mod covariance;
 pub mod events;
 pub mod filter;
 pub mod flow;
+pub mod gap;
 pub mod grip;
 pub mod init;
 pub mod propagate;
+pub mod recovery;
 pub mod state;
 pub mod surface;
 pub mod update;
@@ -38,9 +42,11 @@ pub mod wheel;
 pub mod zupt;
 
 pub use config::{
-    ConfigError, FilterConfig, FlowConfig, ImuNoise, InitConfig, RobotPrior, ZuptConfig,
+    ConfigError, FilterConfig, FlowConfig, GapConfig, ImuNoise, InitConfig, RecoveryConfig,
+    RobotPrior, ZuptConfig,
 };
-pub use filter::{EgoEkf, ExplicitStart, Filter, ImuStep};
+pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};
 pub use flow::FlowFused;
 pub use grip::{GripError, GripParams};
+pub use recovery::{RecoveryCounts, ResetSource, Verdict};
 pub use wheel::WheelInnovation;

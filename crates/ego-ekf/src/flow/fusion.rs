@@ -9,6 +9,10 @@
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
 //! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
 //! reported ([`FlowFused::reset`]).
+//!
+//! The latest report of valid quality and plausible speed, fused or gated, is
+//! kept as a witness ([`FlowFusion::witness`]) for the wheel side's lockout
+//! recovery ([`crate::recovery`]).
 
 use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
@@ -16,6 +20,7 @@ use vslam_core::{Reject, SampleClock, SampleCounts};
 
 use crate::config::FlowConfig;
 use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
+use crate::recovery::FlowWitness;
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::update::gated_update;
 
@@ -39,6 +44,7 @@ pub struct FlowFusion {
     counts: SampleCounts,
     gated_run: u16,
     resets: u32,
+    witness: Option<FlowWitness>,
 }
 
 impl FlowFusion {
@@ -49,6 +55,7 @@ impl FlowFusion {
             counts: SampleCounts::new(),
             gated_run: 0,
             resets: 0,
+            witness: None,
         }
     }
 
@@ -60,6 +67,12 @@ impl FlowFusion {
     /// Velocity resets after runs of gated reports.
     pub fn resets(&self) -> u32 {
         self.resets
+    }
+
+    /// The latest report of valid quality and plausible speed (fused or
+    /// gated), as a witness of the robot's velocity.
+    pub fn witness(&self) -> Option<FlowWitness> {
+        self.witness
     }
 
     /// Counts a sample the filter refused before it reached the maths.
@@ -107,6 +120,14 @@ impl FlowFusion {
             return Err(Reject::NonFinite);
         }
         let std = flow_std(sample, config, z.norm());
+        let plausible = z.norm() <= config.reset_max_speed;
+        if plausible && std.is_finite() {
+            self.witness = Some(FlowWitness {
+                t: sample.t,
+                velocity: z,
+                std,
+            });
+        }
         let m = flow_measurement(x, gyro, &z, std);
         match gated_update(x, p, &m, Some(config.gate)) {
             Ok(report) => {
@@ -120,7 +141,6 @@ impl FlowFusion {
             }
             Err(Reject::Gated) => {
                 self.gated_run = self.gated_run.saturating_add(1);
-                let plausible = z.norm() <= config.reset_max_speed;
                 if config.reset_after_gated == 0
                     || self.gated_run < config.reset_after_gated
                     || !plausible
