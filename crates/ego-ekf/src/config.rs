@@ -210,6 +210,8 @@ pub struct RecoveryConfig {
     pub reset_after_gated: u16,
     /// Oldest flow report, ns, that still counts as a recent witness.
     pub flow_max_age_ns: u64,
+    /// Window, ns, over which the flow's reports are averaged into a witness.
+    pub flow_window_ns: u64,
     /// Lowest grip at which the wheels themselves may be the reset source.
     pub wheel_min_grip: f32,
     /// Largest change of the forward wheel innovation, m/s, within one steady
@@ -224,12 +226,13 @@ pub struct RecoveryConfig {
 
 impl Default for RecoveryConfig {
     /// Re-examine after 25 gated updates (0.5 s at 50 Hz), flow younger than
-    /// 0.2 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
+    /// 0.2 s averaged over 0.25 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
     /// a steady stretch within 5 cm/s, silence after 0.5 s.
     fn default() -> Self {
         RecoveryConfig {
             reset_after_gated: 25,
             flow_max_age_ns: 200_000_000,
+            flow_window_ns: 250_000_000,
             wheel_min_grip: 0.85,
             steady_tolerance: 0.05,
             silence_ns: 500_000_000,

@@ -169,7 +169,11 @@ impl EgoEkf {
                 config.wheel_max_age_ns,
                 config.zupt.max_wheel_rate,
             ),
-            flow: FlowFusion::new(config.flow.map_or(1, |f| f.max_dt_ns)),
+            flow: FlowFusion::new(
+                config.flow.map_or(1, |f| f.max_dt_ns),
+                config.recovery.flow_window_ns,
+                config.flow.map_or(0.0, |f| f.base_std),
+            ),
             recovery: RecoveryCounts::default(),
             gaps: GapCounts::default(),
             config,
@@ -371,7 +375,7 @@ impl EgoEkf {
         let v = self.robot_velocity();
         let flow_config = self.config.flow;
         let max_age = self.config.recovery.flow_max_age_ns;
-        let flow = self.flow.witness().filter(|w| {
+        let flow = self.flow.witness(rates.t).filter(|w| {
             flow_config.is_some() && rates.t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age
         });
         let var = self.p.fixed_view::<2, 2>(V, V).trace() * 0.5;
@@ -587,6 +591,12 @@ impl EgoEkf {
     /// and re-examinations that kept gating (see [`crate::recovery`]).
     pub fn recovery(&self) -> &RecoveryCounts {
         &self.recovery
+    }
+
+    /// The mean of the recent flow reports of valid quality and plausible
+    /// speed, at the filter's time (see [`crate::recovery::FlowWindow`]).
+    pub fn flow_witness(&self) -> Option<crate::recovery::FlowWitness> {
+        self.flow.witness(self.time()?)
     }
 
     /// IMU gaps bridged (see [`crate::gap`]).

@@ -79,15 +79,126 @@ impl Verdict {
     }
 }
 
-/// The latest flow report of valid quality and plausible speed.
+/// What the flow said over the last moments: the inverse-variance mean of
+/// its recent reports of valid quality and plausible speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowWitness {
-    /// When it was taken.
+    /// When the latest report was taken.
     pub t: Timestamp,
-    /// Robot-origin horizontal velocity it measured, robot frame, m/s.
+    /// Robot-origin horizontal velocity, robot frame, m/s (the mean).
     pub velocity: Vector2<f32>,
-    /// Standard deviation of each component, m/s.
+    /// Standard deviation of each component of the mean, m/s.
     pub std: f32,
+    /// Reports in the mean.
+    pub reports: u16,
+}
+
+/// Inverse-variance sums of the reports since `start`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bucket {
+    start: Timestamp,
+    weight: f32,
+    weighted: Vector2<f32>,
+    reports: u16,
+}
+
+impl Bucket {
+    fn new(start: Timestamp) -> Self {
+        Bucket {
+            start,
+            weight: 0.0,
+            weighted: Vector2::zeros(),
+            reports: 0,
+        }
+    }
+}
+
+/// The flow's recent reports, averaged over a sliding window of fixed memory
+/// (two buckets of half the window each). One flow report at low quality is
+/// noisy (a tenth of a metre per second on a dull floor); the mean of the
+/// last quarter of a second tells a velocity that ran away from one that did
+/// not. Reports are white noise to a good approximation (the sensor's counts
+/// are quantised and independent); the mean's standard deviation is kept at
+/// or above `floor_std` (the sensor's base noise) all the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowWindow {
+    half_ns: u64,
+    floor_std: f32,
+    previous: Option<Bucket>,
+    current: Option<Bucket>,
+    last: Option<Timestamp>,
+}
+
+impl FlowWindow {
+    /// An empty window `window_ns` long.
+    pub fn new(window_ns: u64, floor_std: f32) -> Self {
+        FlowWindow {
+            half_ns: (window_ns / 2).max(1),
+            floor_std,
+            previous: None,
+            current: None,
+            last: None,
+        }
+    }
+
+    /// Adds one report taken at `t` (not earlier than the last) with
+    /// per-component standard deviation `std`; non-finite or non-positive
+    /// noise is ignored.
+    pub fn push(&mut self, t: Timestamp, velocity: Vector2<f32>, std: f32) {
+        let var = std * std;
+        if !(var.is_finite() && var > 0.0 && velocity.iter().all(|v| v.is_finite())) {
+            return;
+        }
+        let current = match self.current {
+            Some(c) if t.nanos_since(c.start).is_some_and(|d| d < self.half_ns) => c,
+            other => {
+                self.previous = other;
+                Bucket::new(t)
+            }
+        };
+        let w = 1.0 / var;
+        if !w.is_finite() {
+            return;
+        }
+        self.current = Some(Bucket {
+            weight: current.weight + w,
+            weighted: current.weighted + velocity * w,
+            reports: current.reports.saturating_add(1),
+            ..current
+        });
+        self.last = Some(t);
+    }
+
+    /// The mean of the reports of the last window before `t` (the current
+    /// half and, if recent enough, the one before); `None` without reports.
+    pub fn witness(&self, t: Timestamp) -> Option<FlowWitness> {
+        let current = self.current?;
+        let last = self.last?;
+        let recent = |b: &Bucket| {
+            t.nanos_since(b.start)
+                .is_none_or(|d| d <= self.half_ns.saturating_mul(3))
+        };
+        let mut sum = Bucket::new(current.start);
+        for b in [self.previous, Some(current)]
+            .iter()
+            .flatten()
+            .filter(|b| recent(b))
+        {
+            sum.weight += b.weight;
+            sum.weighted += b.weighted;
+            sum.reports = sum.reports.saturating_add(b.reports);
+        }
+        if sum.weight <= 0.0 || !sum.weight.is_finite() {
+            return None;
+        }
+        let std = libm::sqrtf(1.0 / sum.weight).max(self.floor_std);
+        Some(FlowWitness {
+            t: last,
+            velocity: sum.weighted / sum.weight,
+            std,
+            reports: sum.reports,
+        })
+    }
 }
 
 /// A run of consecutive gated forward wheel updates, cut into steady
@@ -277,7 +388,34 @@ mod tests {
             t: Timestamp(0),
             velocity: Vector2::new(vx, 0.0),
             std,
+            reports: 1,
         })
+    }
+
+    #[test]
+    fn the_window_averages_recent_reports_only() {
+        let mut w = FlowWindow::new(200_000_000, 0.001);
+        assert_eq!(w.witness(Timestamp(0)), None);
+        // 0.1 m/s for a while, then 0.3 m/s: 10 ms apart, std 0.1 each.
+        for k in 0..100u64 {
+            let v = if k < 50 { 0.1 } else { 0.3 };
+            w.push(Timestamp(k * 10_000_000), Vector2::new(v, 0.0), 0.1);
+        }
+        let now = Timestamp(990_000_000);
+        let m = w.witness(now).unwrap();
+        // Only the last 100-200 ms: all at 0.3 m/s.
+        assert!((m.velocity.x - 0.3).abs() < 1e-5, "{m:?}");
+        assert!((10..=20).contains(&m.reports), "{m:?}");
+        assert!((m.std - 0.1 / f32::from(m.reports).sqrt()).abs() < 1e-5);
+        // Noise below the floor is not believed.
+        let mut f = FlowWindow::new(200_000_000, 0.05);
+        for k in 0..20u64 {
+            f.push(Timestamp(k * 10_000_000), Vector2::new(0.2, 0.0), 0.1);
+        }
+        assert_eq!(f.witness(Timestamp(200_000_000)).unwrap().std, 0.05);
+        // Bad noise is ignored.
+        f.push(Timestamp(210_000_000), Vector2::new(9.0, 0.0), f32::NAN);
+        assert_eq!(f.witness(Timestamp(210_000_000)).unwrap().velocity.x, 0.2);
     }
 
     #[test]
