@@ -146,7 +146,8 @@ impl FlowWindow {
     /// noise is ignored.
     pub fn push(&mut self, t: Timestamp, velocity: Vector2<f32>, std: f32) {
         let var = std * std;
-        if !(var.is_finite() && var > 0.0 && velocity.iter().all(|v| v.is_finite())) {
+        let w = 1.0 / var;
+        if !(var > 0.0 && w.is_finite() && velocity.iter().all(|v| v.is_finite())) {
             return;
         }
         let current = match self.current {
@@ -156,10 +157,6 @@ impl FlowWindow {
                 Bucket::new(t)
             }
         };
-        let w = 1.0 / var;
-        if !w.is_finite() {
-            return;
-        }
         self.current = Some(Bucket {
             weight: current.weight + w,
             weighted: current.weighted + velocity * w,
