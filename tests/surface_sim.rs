@@ -258,7 +258,7 @@ fn the_return_strip_after_the_stuck_episode_is_explained() {
 /// 60 s simulations: run with `cargo test -p traction --test surface_sim --
 /// --ignored`.
 #[test]
-#[ignore = "eight full simulations (about two minutes in release)"]
+#[ignore = "eight full simulations (five minutes on a loaded 2-core machine)"]
 fn every_seed_has_only_the_cable_as_obstacle() {
     for scenario in ["office", "slip"] {
         for seed in 1..=4 {
