@@ -208,3 +208,83 @@ fn carpet_to_tile_strip_is_announced_from_the_labels() {
         "announced for {arrival} s, reached at {strip_arrival} s"
     );
 }
+
+/// Issue 4's last failing case, slip scenario seed 3: the robot is stuck from
+/// 48 s to 51 s (wheels turning, body still) on its way back from the tile;
+/// the simulated IMU sees the stop and the restart twice over, so the filter's
+/// forward speed came out of the stuck episode at twice the true 0.3 m/s with
+/// every wheel update gated and the noisy flow passing its gate with a tiny
+/// gain. The tile -> carpet strip announced in that state got an arrival half
+/// a second early, and both of its wheel-edge jolts (54.53 s, 54.79 s) were
+/// judged against carpet with no crossing near: suspected obstacles. Now the
+/// filter re-examines its velocity after a run of gated wheel updates, finds
+/// the flow (which the wheels confirm) against it and resets to the flow: the
+/// strip is explained and the cable on the wood remains the only obstacle.
+#[test]
+fn the_return_strip_after_the_stuck_episode_is_explained() {
+    let root = tmp("slip3");
+    let out = run_simulate("slip", 3, &root, false).unwrap();
+    let ev = events(&out.report);
+    println!("slip seed 3: {ev:?}");
+    println!("final: {}", out.report["final"]);
+    let obs = obstacles(&ev);
+    assert_eq!(obs.len(), 1, "only the cable: {ev:?}");
+    assert!(
+        (obs[0].0 - 7.8).abs() < 0.5 && obs[0].1 == "wood",
+        "{obs:?}"
+    );
+    let near: Vec<_> = ev
+        .iter()
+        .filter(|(t, _, _)| (t - 54.65).abs() < 0.5)
+        .collect();
+    assert!(!near.is_empty(), "the return strip jolts: {ev:?}");
+    assert!(
+        near.iter().all(|(_, k, _)| k != "SuspectedObstacle"),
+        "{near:?}"
+    );
+    // The recovery happened, from the flow, never to the slipping wheels.
+    let lockout = &out.report["final"]["wheel_lockout"];
+    assert!(
+        lockout["resets_to_flow"].as_u64().unwrap() >= 1,
+        "{lockout}"
+    );
+    assert_eq!(lockout["resets_to_wheels"].as_u64(), Some(0), "{lockout}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Every seed of both scenarios (1-4): the cable on the wood is the only
+/// suspected obstacle, and the filter never resets to the wheels there (every
+/// long gated run of these scenarios is slip, with the flow to tell). Eight
+/// 60 s simulations: run with `cargo test -p traction --test surface_sim --
+/// --ignored`.
+#[test]
+#[ignore = "eight full simulations (five minutes on a loaded 2-core machine)"]
+fn every_seed_has_only_the_cable_as_obstacle() {
+    for scenario in ["office", "slip"] {
+        for seed in 1..=4 {
+            let root = tmp(&format!("{scenario}{seed}"));
+            let out = run_simulate(scenario, seed, &root, false).unwrap();
+            let ev = events(&out.report);
+            let obs = obstacles(&ev);
+            let ekf = out
+                .errors
+                .iter()
+                .find(|(n, _)| *n == "ekf")
+                .map(|(_, e)| e.final_error);
+            println!(
+                "{scenario} seed {seed}: obstacles {obs:?}, ekf final error {ekf:?} m, lockout {}",
+                out.report["final"]["wheel_lockout"]
+            );
+            assert_eq!(obs.len(), 1, "{scenario} seed {seed}: {ev:?}");
+            assert!(
+                (obs[0].0 - 7.8).abs() < 0.5,
+                "{scenario} seed {seed}: {obs:?}"
+            );
+            assert_eq!(
+                out.report["final"]["wheel_lockout"]["resets_to_wheels"].as_u64(),
+                Some(0)
+            );
+            let _ = std::fs::remove_dir_all(&root);
+        }
+    }
+}

@@ -201,6 +201,65 @@ impl FlowConfig {
     }
 }
 
+/// How the filter gets out of a wheel lockout (see [`crate::recovery`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecoveryConfig {
+    /// Consecutive gated forward wheel updates after which the filter
+    /// re-examines its own velocity (0: never); re-examined again every as
+    /// many gated updates while the run lasts.
+    pub reset_after_gated: u16,
+    /// Oldest flow report, ns, that still counts as a recent witness.
+    pub flow_max_age_ns: u64,
+    /// Window, ns, over which the flow's reports are averaged into a witness.
+    pub flow_window_ns: u64,
+    /// Lowest grip at which the wheels themselves may be the reset source.
+    pub wheel_min_grip: f32,
+    /// Largest change of the forward wheel innovation, m/s, within one steady
+    /// stretch of a gated run: wheels and IMU see the same accelerations, only
+    /// an offset separates them.
+    pub steady_tolerance: f32,
+    /// A run whose first update follows this long, ns, without a fused
+    /// forward wheel update started after silence (wheel or IMU gap): its
+    /// onset says nothing about slip.
+    pub silence_ns: u64,
+}
+
+impl Default for RecoveryConfig {
+    /// Re-examine after 25 gated updates (0.5 s at 50 Hz), flow younger than
+    /// 0.2 s averaged over 0.25 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
+    /// a steady stretch within 5 cm/s, silence after 0.5 s.
+    fn default() -> Self {
+        RecoveryConfig {
+            reset_after_gated: 25,
+            flow_max_age_ns: 200_000_000,
+            flow_window_ns: 250_000_000,
+            wheel_min_grip: 0.85,
+            steady_tolerance: 0.05,
+            silence_ns: 500_000_000,
+        }
+    }
+}
+
+/// What the filter assumes about motion it did not measure (an IMU gap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GapConfig {
+    /// Density of the robot's unmeasured acceleration, m/s^2/sqrt(Hz)
+    /// (white-noise-acceleration model over the gap).
+    pub accel_density: f32,
+    /// Density of its unmeasured angular rate, rad/s/sqrt(Hz).
+    pub gyro_density: f32,
+}
+
+impl Default for GapConfig {
+    /// A robot vacuum: about 0.5 m/s^2 and 1 rad/s in one second.
+    fn default() -> Self {
+        GapConfig {
+            accel_density: 0.5,
+            gyro_density: 1.0,
+        }
+    }
+}
+
 /// Everything the filter needs to know before the first sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilterConfig {
@@ -214,6 +273,15 @@ pub struct FilterConfig {
     pub imu_accel_max: f32,
     /// Largest accepted step between wheel samples, ns.
     pub wheel_max_dt_ns: u64,
+    /// Largest distance, ns, between a wheel sample's time and the filter's
+    /// (latest IMU) time: an older sample measured a velocity the state no
+    /// longer has ([`vslam_core::Reject::OutOfOrder`]), a newer one a
+    /// velocity the state has not reached ([`vslam_core::Reject::NotReady`]).
+    pub wheel_max_age_ns: u64,
+    /// Getting out of a wheel lockout.
+    pub recovery: RecoveryConfig,
+    /// Bridging an IMU gap.
+    pub gap: GapConfig,
     /// Robot prior.
     pub robot: RobotPrior,
     /// Initialisation.
@@ -236,6 +304,9 @@ impl Default for FilterConfig {
             imu_gyro_max: 35.0,
             imu_accel_max: 160.0,
             wheel_max_dt_ns: 200_000_000,
+            wheel_max_age_ns: 50_000_000,
+            recovery: RecoveryConfig::default(),
+            gap: GapConfig::default(),
             robot: RobotPrior::default(),
             init: InitConfig::default(),
             zupt: ZuptConfig::default(),
@@ -308,6 +379,9 @@ impl FilterConfig {
             r.rotation_random_walk,
             self.imu_gyro_max,
             self.imu_accel_max,
+            self.recovery.steady_tolerance,
+            self.gap.accel_density,
+            self.gap.gyro_density,
         ];
         let flow_noise = self
             .flow
@@ -315,7 +389,9 @@ impl FilterConfig {
         if self.flow.is_some_and(|f| f.max_dt_ns == 0) {
             return Err(ConfigError::BadLimit);
         }
-        if !noise.iter().chain(flow_noise.iter()).all(|v| positive(*v)) {
+        // A minimum grip above every grip (or infinite) never trusts the wheels.
+        let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
+        if !noise.iter().chain(flow_noise.iter()).all(|v| positive(*v)) || !min_grip_ok {
             return Err(ConfigError::BadNoise);
         }
         let vectors_finite = [&r.p_bl, &r.p_br]
@@ -327,6 +403,7 @@ impl FilterConfig {
         }
         if self.imu_max_dt_ns == 0
             || self.wheel_max_dt_ns == 0
+            || self.wheel_max_age_ns == 0
             || i.samples == 0
             || z.still_samples == 0
             || z.every == 0

@@ -6,12 +6,15 @@ use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
 use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
+use crate::flow::model::reset_velocity;
 use crate::flow::{FlowFused, FlowFusion};
+use crate::gap::bridge_gap;
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
 use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_nominal, vertical_deviation,
 };
+use crate::recovery::{Evidence, RecoveryCounts, ResetSource, Verdict, decide};
 use crate::state::{
     BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
 };
@@ -24,6 +27,24 @@ use crate::zupt::model::zupt_measurement;
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
 /// Variance of the clone's copy of the attitude, rad^2.
 const CLONE_COPY_VAR_ATTITUDE: f32 = 1.0e-8;
+/// The copy variance is at least this fraction of the largest pose variance:
+/// in `f32` (7 digits) a copy of a pose known to metres (after an IMU gap)
+/// would otherwise be bit-identical to it and `P` singular.
+const CLONE_COPY_RELATIVE: f32 = 1.0e-5;
+
+/// Copies the pose into the clone, with copy variances that keep `P`
+/// positive definite in `f32` whatever the pose's uncertainty.
+fn clone_pose(x: &mut NominalState, p: &mut Covariance) {
+    x.clone_pose();
+    let largest = |start: usize| {
+        (start..start + 3)
+            .filter_map(|i| p.get((i, i)).copied())
+            .fold(0.0f32, f32::max)
+    };
+    let var_p = CLONE_COPY_VAR_POSITION.max(CLONE_COPY_RELATIVE * largest(P));
+    let var_th = CLONE_COPY_VAR_ATTITUDE.max(CLONE_COPY_RELATIVE * largest(TH));
+    covariance::clone_pose(p, var_p, var_th);
+}
 
 /// One IMU step's output: the bias-corrected sample and what the events
 /// module needs.
@@ -75,6 +96,39 @@ pub struct EgoEkf {
     still: StillDetector,
     wheel: WheelFusion,
     flow: FlowFusion,
+    recovery: RecoveryCounts,
+    gaps: GapCounts,
+}
+
+/// IMU gaps the filter bridged (see [`crate::gap`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GapCounts {
+    /// Gaps bridged.
+    pub bridged: u32,
+    /// Their total length, ns.
+    pub total_ns: u64,
+    /// The longest, ns.
+    pub longest_ns: u64,
+}
+
+/// The flow's velocity, its forward component combined (inverse-variance)
+/// with the wheels' speed when the two agree within the wheels' gate: the
+/// flow vouches for the wheels, which are the more precise. The variance of
+/// the reset stays the flow's (conservative).
+fn confirmed_flow(
+    flow: &crate::recovery::FlowWitness,
+    wheel_speed: f32,
+    grip: &GripParams,
+) -> nalgebra::Vector2<f32> {
+    let var_f = flow.std * flow.std;
+    let var_w = grip.forward_std() * grip.forward_std();
+    let d = wheel_speed - flow.velocity.x;
+    let agree = d * d <= grip.forward_gate() * (var_f + var_w);
+    let mut z = flow.velocity;
+    if agree && var_f + var_w > 0.0 {
+        z.x = (flow.velocity.x * var_w + wheel_speed * var_f) / (var_f + var_w);
+    }
+    z
 }
 
 /// Short name of [`EgoEkf`].
@@ -110,8 +164,18 @@ impl EgoEkf {
             imu_counts: SampleCounts::new(),
             last_step: None,
             still: StillDetector::new(),
-            wheel: WheelFusion::new(config.wheel_max_dt_ns, config.zupt.max_wheel_rate),
-            flow: FlowFusion::new(config.flow.map_or(1, |f| f.max_dt_ns)),
+            wheel: WheelFusion::new(
+                config.wheel_max_dt_ns,
+                config.wheel_max_age_ns,
+                config.zupt.max_wheel_rate,
+            ),
+            flow: FlowFusion::new(
+                config.flow.map_or(1, |f| f.max_dt_ns),
+                config.recovery.flow_window_ns,
+                config.flow.map_or(0.0, |f| f.base_std),
+            ),
+            recovery: RecoveryCounts::default(),
+            gaps: GapCounts::default(),
             config,
         })
     }
@@ -168,12 +232,7 @@ impl EgoEkf {
             d.rows_mut(start, len).fill(std * std);
         }
         self.p = Covariance::from_diagonal(&d);
-        self.x.clone_pose();
-        covariance::clone_pose(
-            &mut self.p,
-            CLONE_COPY_VAR_POSITION,
-            CLONE_COPY_VAR_ATTITUDE,
-        );
+        clone_pose(&mut self.x, &mut self.p);
         self.imu_clock.reset();
         // Anchor the IMU clock at the start time; cannot fail after a reset.
         let _ = self.imu_clock.accept(t);
@@ -188,7 +247,10 @@ impl EgoEkf {
     /// Before initialisation the sample feeds the still-sample average and is
     /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
     /// beyond the configured range are rejected with their reason and leave
-    /// the state untouched.
+    /// the state untouched, except that the sample ending a gap (longer than
+    /// the configured step) first bridges it: position extrapolated, the
+    /// covariance grown by the unmeasured motion (see [`crate::gap`]),
+    /// counted in [`EgoEkf::gaps`].
     pub fn propagate(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
         let outcome = self.propagate_inner(sample);
         self.imu_counts.record(outcome.map(|_| ()));
@@ -205,7 +267,14 @@ impl EgoEkf {
         {
             return Err(Reject::OutOfRange);
         }
+        let previous = self.imu_clock.last();
         let dt = self.imu_clock.accept(sample.t());
+        if self.initialised
+            && dt == Err(Reject::Gap)
+            && let Some(gap_ns) = previous.and_then(|p| sample.t().nanos_since(p))
+        {
+            self.bridge(gap_ns);
+        }
         if !self.initialised {
             dt?;
             if let Some(s) = self.initialiser.add(
@@ -239,12 +308,7 @@ impl EgoEkf {
             self.wheel.stopped(),
         );
         if !still {
-            self.x.clone_pose();
-            covariance::clone_pose(
-                &mut self.p,
-                CLONE_COPY_VAR_POSITION,
-                CLONE_COPY_VAR_ATTITUDE,
-            );
+            clone_pose(&mut self.x, &mut self.p);
         } else if self.still.update_due(&zc) {
             let m = zupt_measurement(&self.x, &zc);
             let outcome = gated_update(&mut self.x, &mut self.p, &m, None).map(|_| ());
@@ -260,19 +324,89 @@ impl EgoEkf {
         })
     }
 
-    /// Fuses one wheel-rate sample; see [`crate::wheel`]. A gated forward
-    /// part still returns its innovation (with `gated` set) and is counted
-    /// as [`Reject::Gated`].
-    pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
-        if !self.initialised {
-            return Err(self.wheel.refuse(Reject::NotReady));
+    fn bridge(&mut self, gap_ns: u64) {
+        let gap_s = vslam_core::time::nanos_to_seconds(gap_ns);
+        if bridge_gap(&mut self.x, &mut self.p, &self.config, gap_s) {
+            self.still.interrupt();
+            let g = &mut self.gaps;
+            g.bridged = g.bridged.saturating_add(1);
+            g.total_ns = g.total_ns.saturating_add(gap_ns);
+            g.longest_ns = g.longest_ns.max(gap_ns);
         }
+    }
+
+    /// Fuses one wheel-rate sample at the filter's time; see
+    /// [`crate::wheel`]. A gated forward part still returns its innovation
+    /// (with `gated` set) and is counted as [`Reject::Gated`]. When the
+    /// sample completes a run of gated samples, the filter re-examines its
+    /// velocity and may reset it from the most trusted source (see
+    /// [`crate::recovery`]); the verdict is in
+    /// [`WheelInnovation::recovery`] and counted ([`EgoEkf::recovery`]).
+    pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
+        let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
+            return Err(self.wheel.refuse(Reject::NotReady));
+        };
         let gyro = self.angular_velocity();
-        let out = self
-            .wheel
-            .fuse(&mut self.x, &mut self.p, &gyro, rates, &self.grip);
+        let mut out = self.wheel.fuse(
+            &mut self.x,
+            &mut self.p,
+            &gyro,
+            rates,
+            &self.grip,
+            now,
+            &self.config.recovery,
+        );
+        if let Ok(inn) = out.as_mut()
+            && inn.gated
+            && self.wheel.gated_run().due(&self.config.recovery)
+        {
+            let verdict = self.re_examine(rates, inn);
+            inn.recovery = Some(verdict);
+            self.recovery.record(rates.t, verdict);
+        }
         debug_assert!(covariance::looks_valid(&self.p));
         out
+    }
+
+    /// Asks the most trusted witness about the velocity after a run of gated
+    /// wheel samples and resets it if the witness says so.
+    fn re_examine(&mut self, rates: &WheelRates, inn: &WheelInnovation) -> Verdict {
+        let gyro = self.angular_velocity();
+        let v = self.robot_velocity();
+        let flow_config = self.config.flow;
+        let max_age = self.config.recovery.flow_max_age_ns;
+        let flow = self.flow.witness(rates.t).filter(|w| {
+            flow_config.is_some() && rates.t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age
+        });
+        let var = self.p.fixed_view::<2, 2>(V, V).trace() * 0.5;
+        let run = *self.wheel.gated_run();
+        let evidence = Evidence {
+            filter_velocity: nalgebra::Vector2::new(v.x, v.y),
+            filter_var: var,
+            wheel_speed: inn.speed,
+            wheel_std: self.grip.forward_std(),
+            wheel_gate: self.grip.forward_gate(),
+            grip: self.grip.grip(),
+            flow,
+            flow_gate: flow_config.map_or(f32::INFINITY, |f| f.gate),
+            run: &run,
+        };
+        let verdict = decide(&self.config.recovery, &evidence);
+        let reset = match (verdict, flow) {
+            (Verdict::Reset(ResetSource::Flow), Some(f)) => {
+                Some((confirmed_flow(&f, inn.speed, &self.grip), f.std))
+            }
+            (Verdict::Reset(ResetSource::Wheels), _) => Some((
+                nalgebra::Vector2::new(inn.speed, 0.0),
+                self.grip.forward_std(),
+            )),
+            _ => None,
+        };
+        if let Some((z, std)) = reset {
+            reset_velocity(&mut self.x, &mut self.p, &gyro, &z, std);
+            self.wheel.end_run();
+        }
+        verdict
     }
 
     /// Fuses one optical-flow report; see [`crate::flow`]. Without a
@@ -451,6 +585,23 @@ impl EgoEkf {
     /// Velocity resets to the flow after runs of gated flow reports.
     pub fn flow_resets(&self) -> u32 {
         self.flow.resets()
+    }
+
+    /// Verdicts after runs of gated wheel samples: velocity resets by source,
+    /// and re-examinations that kept gating (see [`crate::recovery`]).
+    pub fn recovery(&self) -> &RecoveryCounts {
+        &self.recovery
+    }
+
+    /// The mean of the recent flow reports of valid quality and plausible
+    /// speed, at the filter's time (see [`crate::recovery::FlowWindow`]).
+    pub fn flow_witness(&self) -> Option<crate::recovery::FlowWitness> {
+        self.flow.witness(self.time()?)
+    }
+
+    /// IMU gaps bridged (see [`crate::gap`]).
+    pub fn gaps(&self) -> &GapCounts {
+        &self.gaps
     }
 
     /// Flow reports fused, gated and rejected by reason.

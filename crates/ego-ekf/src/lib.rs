@@ -12,6 +12,8 @@
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
 //! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*;
+//! - [`recovery`]: out of a wheel lockout from the most trusted source;
+//!   [`gap`]: bridging an IMU gap;
 //! - [`filter`]: [`EgoEkf`], the type users call.
 #![no_std]
 #![cfg_attr(
@@ -29,9 +31,11 @@ pub mod covariance;
 pub mod events;
 pub mod filter;
 pub mod flow;
+pub mod gap;
 pub mod grip;
 pub mod init;
 pub mod propagate;
+pub mod recovery;
 pub mod reference;
 pub mod state;
 pub mod surface;
@@ -40,9 +44,11 @@ pub mod wheel;
 pub mod zupt;
 
 pub use config::{
-    ConfigError, FilterConfig, FlowConfig, ImuNoise, InitConfig, RobotPrior, ZuptConfig,
+    ConfigError, FilterConfig, FlowConfig, GapConfig, ImuNoise, InitConfig, RecoveryConfig,
+    RobotPrior, ZuptConfig,
 };
-pub use filter::{EgoEkf, ExplicitStart, Filter, ImuStep};
+pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};
 pub use flow::FlowFused;
 pub use grip::{GripError, GripParams};
+pub use recovery::{RecoveryCounts, ResetSource, Verdict};
 pub use wheel::WheelInnovation;

@@ -607,6 +607,13 @@ pub fn replay_feed(
         "final": {
             "wheel_radii": ekf.wheel_radii(),
             "flow_velocity_resets": ekf.flow_resets(),
+            "wheel_lockout": {
+                "resets_to_flow": ekf.recovery().resets_to_flow,
+                "resets_to_wheels": ekf.recovery().resets_to_wheels,
+                "kept_gating_wheels_slip": ekf.recovery().wheels_slip,
+                "kept_gating_no_trusted_source": ekf.recovery().no_trusted_source,
+            },
+            "imu_gaps_bridged": ekf.gaps().bridged,
             "wheel_radius_std": ekf.wheel_radius_std(),
             "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
             "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],

@@ -9,6 +9,11 @@
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
 //! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
 //! reported ([`FlowFused::reset`]).
+//!
+//! Reports of valid quality and plausible speed, fused or gated, are averaged
+//! over a short window ([`FlowWindow`]) as a witness of the robot's velocity
+//! ([`FlowFusion::witness`]) for the wheel side's lockout recovery
+//! ([`crate::recovery`]).
 
 use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
@@ -16,6 +21,7 @@ use vslam_core::{Reject, SampleClock, SampleCounts};
 
 use crate::config::FlowConfig;
 use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
+use crate::recovery::{FlowWindow, FlowWitness};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::update::gated_update;
 
@@ -39,16 +45,20 @@ pub struct FlowFusion {
     counts: SampleCounts,
     gated_run: u16,
     resets: u32,
+    window: FlowWindow,
 }
 
 impl FlowFusion {
-    /// A fresh status accepting report intervals up to `max_dt_ns`.
-    pub fn new(max_dt_ns: u64) -> Self {
+    /// A fresh status accepting report intervals up to `max_dt_ns`, keeping
+    /// a witness averaged over `window_ns` whose standard deviation is at
+    /// least `floor_std` m/s.
+    pub fn new(max_dt_ns: u64, window_ns: u64, floor_std: f32) -> Self {
         FlowFusion {
             clock: SampleClock::new(max_dt_ns),
             counts: SampleCounts::new(),
             gated_run: 0,
             resets: 0,
+            window: FlowWindow::new(window_ns, floor_std),
         }
     }
 
@@ -60,6 +70,12 @@ impl FlowFusion {
     /// Velocity resets after runs of gated reports.
     pub fn resets(&self) -> u32 {
         self.resets
+    }
+
+    /// The mean of the recent reports of valid quality and plausible speed
+    /// (fused or gated) before `t`, as a witness of the robot's velocity.
+    pub fn witness(&self, t: vslam_core::Timestamp) -> Option<FlowWitness> {
+        self.window.witness(t)
     }
 
     /// Counts a sample the filter refused before it reached the maths.
@@ -107,6 +123,10 @@ impl FlowFusion {
             return Err(Reject::NonFinite);
         }
         let std = flow_std(sample, config, z.norm());
+        let plausible = z.norm() <= config.reset_max_speed;
+        if plausible {
+            self.window.push(sample.t, z, std);
+        }
         let m = flow_measurement(x, gyro, &z, std);
         match gated_update(x, p, &m, Some(config.gate)) {
             Ok(report) => {
@@ -120,7 +140,6 @@ impl FlowFusion {
             }
             Err(Reject::Gated) => {
                 self.gated_run = self.gated_run.saturating_add(1);
-                let plausible = z.norm() <= config.reset_max_speed;
                 if config.reset_after_gated == 0
                     || self.gated_run < config.reset_after_gated
                     || !plausible

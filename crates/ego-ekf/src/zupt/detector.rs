@@ -55,6 +55,13 @@ impl StillDetector {
         self.is_still(config)
     }
 
+    /// Forgets the run of still samples (after a break in the IMU stream
+    /// nothing says the robot stayed still); the counters are kept.
+    pub fn interrupt(&mut self) {
+        self.run = 0;
+        self.since_update = 0;
+    }
+
     /// Whether the robot is still.
     pub fn is_still(&self, config: &ZuptConfig) -> bool {
         self.run >= config.still_samples

@@ -1,0 +1,497 @@
+//! Never locking out: what to do when the wheels' forward speed keeps failing
+//! the gate.
+//!
+//! A run of gated forward wheel updates means the wheels and the filter's
+//! velocity disagree. Either the wheels slip (spinning on carpet, turning
+//! while the robot is stuck) and the gate is right, or the filter's velocity
+//! has gone wrong (IMU-only dead reckoning during a gap or a slip episode, an
+//! IMU glitch, a bad start) and every later update is refused: a lockout. As
+//! PX4 EKF2 resets its velocity after a fusion timeout, from the best source
+//! it has, the filter re-examines its velocity after
+//! [`RecoveryConfig::reset_after_gated`] gated updates in a row and asks the
+//! most trusted witness:
+//!
+//! 1. a recent flow report of valid quality ([`FlowWitness`]): if the flow
+//!    disagrees with the filter beyond the flow gate, or if the wheels agree
+//!    with the flow (two sensors against the filter), the velocity is reset to
+//!    the flow; if the filter agrees with the flow and the wheels agree with
+//!    neither, the wheels slip: keep gating ([`Verdict::WheelsSlip`]);
+//! 2. without flow, the wheels themselves, but only if nothing says they slip:
+//!    the floor's grip is high ([`RecoveryConfig::wheel_min_grip`]) and the
+//!    IMU agrees with the wheels about the motion. The IMU measures
+//!    accelerations well and velocity offsets badly; so the run must be one
+//!    steady stretch (the forward innovation changes by at most
+//!    [`RecoveryConfig::steady_tolerance`]: wheels and IMU saw the same
+//!    accelerations, only an offset separates them) whose onset says nothing
+//!    against the wheels. While the wheels are fused they correct the
+//!    velocity at every sample, so an IMU drift cannot creep over the gate:
+//!    a run that begins while the wheels were being fused begins with the
+//!    wheels changing speed without the IMU feeling it (a spin-up, a slip
+//!    growing) or with the IMU feeling a stop the wheels do not share
+//!    (stuck), however gently. Only a discrepancy found after silence (no
+//!    fused wheel update for [`RecoveryConfig::silence_ns`]: a wheel or IMU
+//!    gap, dead reckoning on the IMU alone) built up while nothing could be
+//!    compared, and a jump inside the run that brings the wheels back
+//!    towards the filter ends a slip: those onsets are trusted;
+//! 3. otherwise keep gating and say so ([`Verdict::NoTrustedSource`]).
+//!
+//! A reset replaces the horizontal robot-origin velocity by the source's and
+//! its covariance block by the source's variance, uncorrelated (see
+//! [`crate::flow::model::reset_velocity`]). Every verdict is counted
+//! ([`RecoveryCounts`]).
+
+use nalgebra::Vector2;
+use vslam_core::Timestamp;
+
+use crate::config::RecoveryConfig;
+
+/// Where a reset velocity came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetSource {
+    /// The latest valid flow report.
+    Flow,
+    /// The wheels' forward speed (no lateral motion).
+    Wheels,
+}
+
+/// What the filter decided at the end of a run of gated wheel updates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// The velocity was reset from this source.
+    Reset(ResetSource),
+    /// The flow agrees with the filter and not with the wheels: they slip,
+    /// gating continues.
+    WheelsSlip,
+    /// No source is trusted (no recent flow; the wheels may slip): gating
+    /// continues.
+    NoTrustedSource,
+}
+
+impl Verdict {
+    /// A short snake_case name, stable for reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Verdict::Reset(ResetSource::Flow) => "reset_to_flow",
+            Verdict::Reset(ResetSource::Wheels) => "reset_to_wheels",
+            Verdict::WheelsSlip => "wheels_slip",
+            Verdict::NoTrustedSource => "no_trusted_source",
+        }
+    }
+}
+
+/// What the flow said over the last moments: the inverse-variance mean of
+/// its recent reports of valid quality and plausible speed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowWitness {
+    /// When the latest report was taken.
+    pub t: Timestamp,
+    /// Robot-origin horizontal velocity, robot frame, m/s (the mean).
+    pub velocity: Vector2<f32>,
+    /// Standard deviation of each component of the mean, m/s.
+    pub std: f32,
+    /// Reports in the mean.
+    pub reports: u16,
+}
+
+/// Inverse-variance sums of the reports since `start`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bucket {
+    start: Timestamp,
+    weight: f32,
+    weighted: Vector2<f32>,
+    reports: u16,
+}
+
+impl Bucket {
+    fn new(start: Timestamp) -> Self {
+        Bucket {
+            start,
+            weight: 0.0,
+            weighted: Vector2::zeros(),
+            reports: 0,
+        }
+    }
+}
+
+/// The flow's recent reports, averaged over a sliding window of fixed memory
+/// (two buckets of half the window each). One flow report at low quality is
+/// noisy (a tenth of a metre per second on a dull floor); the mean of the
+/// last quarter of a second tells a velocity that ran away from one that did
+/// not. Reports are white noise to a good approximation (the sensor's counts
+/// are quantised and independent); the mean's standard deviation is kept at
+/// or above `floor_std` (the sensor's base noise) all the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowWindow {
+    half_ns: u64,
+    floor_std: f32,
+    previous: Option<Bucket>,
+    current: Option<Bucket>,
+    last: Option<Timestamp>,
+}
+
+impl FlowWindow {
+    /// An empty window `window_ns` long.
+    pub fn new(window_ns: u64, floor_std: f32) -> Self {
+        FlowWindow {
+            half_ns: (window_ns / 2).max(1),
+            floor_std,
+            previous: None,
+            current: None,
+            last: None,
+        }
+    }
+
+    /// Adds one report taken at `t` (not earlier than the last) with
+    /// per-component standard deviation `std`; non-finite or non-positive
+    /// noise is ignored.
+    pub fn push(&mut self, t: Timestamp, velocity: Vector2<f32>, std: f32) {
+        let var = std * std;
+        let w = 1.0 / var;
+        if !(var > 0.0 && w.is_finite() && velocity.iter().all(|v| v.is_finite())) {
+            return;
+        }
+        let current = match self.current {
+            Some(c) if t.nanos_since(c.start).is_some_and(|d| d < self.half_ns) => c,
+            other => {
+                self.previous = other;
+                Bucket::new(t)
+            }
+        };
+        self.current = Some(Bucket {
+            weight: current.weight + w,
+            weighted: current.weighted + velocity * w,
+            reports: current.reports.saturating_add(1),
+            ..current
+        });
+        self.last = Some(t);
+    }
+
+    /// The mean of the reports of the last window before `t` (the current
+    /// half and, if recent enough, the one before); `None` without reports.
+    pub fn witness(&self, t: Timestamp) -> Option<FlowWitness> {
+        let current = self.current?;
+        let last = self.last?;
+        let recent = |b: &Bucket| {
+            t.nanos_since(b.start)
+                .is_none_or(|d| d <= self.half_ns.saturating_mul(3))
+        };
+        let mut sum = Bucket::new(current.start);
+        for b in [self.previous, Some(current)]
+            .iter()
+            .flatten()
+            .filter(|b| recent(b))
+        {
+            sum.weight += b.weight;
+            sum.weighted += b.weighted;
+            sum.reports = sum.reports.saturating_add(b.reports);
+        }
+        if sum.weight <= 0.0 || !sum.weight.is_finite() {
+            return None;
+        }
+        let std = libm::sqrtf(1.0 / sum.weight).max(self.floor_std);
+        Some(FlowWitness {
+            t: last,
+            velocity: sum.weighted / sum.weight,
+            std,
+            reports: sum.reports,
+        })
+    }
+}
+
+/// A run of consecutive gated forward wheel updates, cut into steady
+/// stretches.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GatedRun {
+    len: u16,
+    steady_len: u16,
+    reference: f32,
+    previous: f32,
+    trusted_onset: bool,
+}
+
+impl GatedRun {
+    /// Gated updates in the run.
+    pub fn len(&self) -> u16 {
+        self.len
+    }
+
+    /// Whether the run is empty (the last update was fused).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Updates in the current steady stretch.
+    pub fn steady_len(&self) -> u16 {
+        self.steady_len
+    }
+
+    /// Whether the current stretch began in a way that says nothing against
+    /// the wheels (after silence, or back towards the filter).
+    pub fn trusted_onset(&self) -> bool {
+        self.trusted_onset
+    }
+
+    /// Adds one gated update with forward innovation `forward`, m/s;
+    /// `after_silence` if no forward update was fused for the silence time
+    /// before it.
+    pub fn push(&mut self, config: &RecoveryConfig, forward: f32, after_silence: bool) {
+        if self.len == 0 {
+            self.start(forward, after_silence);
+        } else if libm::fabsf(forward - self.reference) > config.steady_tolerance {
+            // A jump inside the run: back towards the filter ends a slip,
+            // away from it starts one.
+            let towards =
+                libm::fabsf(forward) + config.steady_tolerance < libm::fabsf(self.previous);
+            self.start(forward, towards);
+        } else {
+            self.steady_len = self.steady_len.saturating_add(1);
+        }
+        self.len = self.len.saturating_add(1);
+        self.previous = forward;
+    }
+
+    fn start(&mut self, forward: f32, trusted: bool) {
+        self.steady_len = 1;
+        self.reference = forward;
+        self.trusted_onset = trusted;
+    }
+
+    /// Ends the run (a fused update, or a reset).
+    pub fn clear(&mut self) {
+        *self = GatedRun::default();
+    }
+
+    /// Whether the run has reached a multiple of the re-examination length.
+    pub fn due(&self, config: &RecoveryConfig) -> bool {
+        config.reset_after_gated > 0
+            && self.len > 0
+            && self.len.is_multiple_of(config.reset_after_gated)
+    }
+}
+
+/// What the filter knows when it re-examines its velocity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evidence<'a> {
+    /// The filter's robot-origin horizontal velocity, robot frame, m/s.
+    pub filter_velocity: Vector2<f32>,
+    /// Its variance per component, (m/s)^2.
+    pub filter_var: f32,
+    /// The wheels' forward speed, m/s.
+    pub wheel_speed: f32,
+    /// Its standard deviation on the current floor, m/s.
+    pub wheel_std: f32,
+    /// The wheels' 1-DOF chi-square gate on the current floor.
+    pub wheel_gate: f32,
+    /// The current floor's grip.
+    pub grip: f32,
+    /// A recent flow report, if any.
+    pub flow: Option<FlowWitness>,
+    /// The flow's 2-DOF chi-square gate.
+    pub flow_gate: f32,
+    /// The gated run.
+    pub run: &'a GatedRun,
+}
+
+/// The verdict for `evidence`; see the module documentation.
+pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
+    let e = evidence;
+    if let Some(f) = e.flow {
+        let d = f.velocity - e.filter_velocity;
+        let flow_var = f.std * f.std;
+        let flow_vs_filter = d.norm_squared() / (flow_var + e.filter_var).max(f32::MIN_POSITIVE);
+        let dw = e.wheel_speed - f.velocity.x;
+        let wheel_vs_flow = dw * dw / (flow_var + e.wheel_std * e.wheel_std).max(f32::MIN_POSITIVE);
+        // NaN compares false: no reset on a non-finite comparison.
+        if flow_vs_filter > e.flow_gate || wheel_vs_flow <= e.wheel_gate {
+            return Verdict::Reset(ResetSource::Flow);
+        }
+        return Verdict::WheelsSlip;
+    }
+    let run = e.run;
+    if e.grip >= config.wheel_min_grip
+        && run.trusted_onset
+        && run.steady_len >= config.reset_after_gated
+        && e.wheel_speed.is_finite()
+    {
+        return Verdict::Reset(ResetSource::Wheels);
+    }
+    Verdict::NoTrustedSource
+}
+
+/// Verdicts counted, and the latest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecoveryCounts {
+    /// Velocity resets to the flow.
+    pub resets_to_flow: u32,
+    /// Velocity resets to the wheels.
+    pub resets_to_wheels: u32,
+    /// Re-examinations that found the wheels slipping.
+    pub wheels_slip: u32,
+    /// Re-examinations without a trusted source.
+    pub no_trusted_source: u32,
+    /// The latest verdict and when it was made.
+    pub last: Option<(Timestamp, Verdict)>,
+}
+
+impl RecoveryCounts {
+    /// Counts one verdict made at `t`.
+    pub fn record(&mut self, t: Timestamp, verdict: Verdict) {
+        let slot = match verdict {
+            Verdict::Reset(ResetSource::Flow) => &mut self.resets_to_flow,
+            Verdict::Reset(ResetSource::Wheels) => &mut self.resets_to_wheels,
+            Verdict::WheelsSlip => &mut self.wheels_slip,
+            Verdict::NoTrustedSource => &mut self.no_trusted_source,
+        };
+        *slot = slot.saturating_add(1);
+        self.last = Some((t, verdict));
+    }
+
+    /// Resets from any source.
+    pub fn resets(&self) -> u32 {
+        self.resets_to_flow.saturating_add(self.resets_to_wheels)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn evidence<'a>(run: &'a GatedRun, flow: Option<FlowWitness>) -> Evidence<'a> {
+        Evidence {
+            filter_velocity: Vector2::new(0.6, 0.0),
+            filter_var: 1e-4,
+            wheel_speed: 0.3,
+            wheel_std: 0.02,
+            wheel_gate: 6.63,
+            grip: 0.95,
+            flow,
+            flow_gate: 9.21,
+            run,
+        }
+    }
+
+    fn steady_run(config: &RecoveryConfig, silence: bool) -> GatedRun {
+        let mut run = GatedRun::default();
+        run.push(config, -0.3, silence);
+        for k in 1..config.reset_after_gated {
+            // A slow drift inside the tolerance.
+            run.push(config, -0.3 - 0.001 * f32::from(k), false);
+        }
+        run
+    }
+
+    fn witness(vx: f32, std: f32) -> Option<FlowWitness> {
+        Some(FlowWitness {
+            t: Timestamp(0),
+            velocity: Vector2::new(vx, 0.0),
+            std,
+            reports: 1,
+        })
+    }
+
+    #[test]
+    fn the_window_averages_recent_reports_only() {
+        let mut w = FlowWindow::new(200_000_000, 0.001);
+        assert_eq!(w.witness(Timestamp(0)), None);
+        // 0.1 m/s for a while, then 0.3 m/s: 10 ms apart, std 0.1 each.
+        for k in 0..100u64 {
+            let v = if k < 50 { 0.1 } else { 0.3 };
+            w.push(Timestamp(k * 10_000_000), Vector2::new(v, 0.0), 0.1);
+        }
+        let now = Timestamp(990_000_000);
+        let m = w.witness(now).unwrap();
+        // Only the last 100-200 ms: all at 0.3 m/s.
+        assert!((m.velocity.x - 0.3).abs() < 1e-5, "{m:?}");
+        assert!((10..=20).contains(&m.reports), "{m:?}");
+        assert!((m.std - 0.1 / f32::from(m.reports).sqrt()).abs() < 1e-5);
+        // Noise below the floor is not believed.
+        let mut f = FlowWindow::new(200_000_000, 0.05);
+        for k in 0..20u64 {
+            f.push(Timestamp(k * 10_000_000), Vector2::new(0.2, 0.0), 0.1);
+        }
+        assert_eq!(f.witness(Timestamp(200_000_000)).unwrap().std, 0.05);
+        // Bad noise is ignored.
+        f.push(Timestamp(210_000_000), Vector2::new(9.0, 0.0), f32::NAN);
+        assert_eq!(f.witness(Timestamp(210_000_000)).unwrap().velocity.x, 0.2);
+    }
+
+    #[test]
+    fn flow_that_disagrees_with_the_filter_is_the_source() {
+        let c = RecoveryConfig::default();
+        let run = steady_run(&c, false);
+        let v = decide(&c, &evidence(&run, witness(0.3, 0.02)));
+        assert_eq!(v, Verdict::Reset(ResetSource::Flow));
+    }
+
+    #[test]
+    fn noisy_flow_that_the_wheels_confirm_is_the_source() {
+        let c = RecoveryConfig::default();
+        let run = steady_run(&c, false);
+        // 0.3 m/s off the filter is within a 0.15 m/s flow's gate, but the
+        // wheels say the same as the flow.
+        let v = decide(&c, &evidence(&run, witness(0.32, 0.15)));
+        assert_eq!(v, Verdict::Reset(ResetSource::Flow));
+    }
+
+    #[test]
+    fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
+        let c = RecoveryConfig::default();
+        let run = steady_run(&c, false);
+        let v = decide(&c, &evidence(&run, witness(0.6, 0.02)));
+        assert_eq!(v, Verdict::WheelsSlip);
+    }
+
+    #[test]
+    fn without_flow_the_wheels_only_after_silence_on_high_grip() {
+        let c = RecoveryConfig::default();
+        let jump = steady_run(&c, false);
+        assert_eq!(decide(&c, &evidence(&jump, None)), Verdict::NoTrustedSource);
+        let silence = steady_run(&c, true);
+        assert_eq!(
+            decide(&c, &evidence(&silence, None)),
+            Verdict::Reset(ResetSource::Wheels)
+        );
+        let mut carpet = evidence(&silence, None);
+        carpet.grip = 0.7;
+        assert_eq!(decide(&c, &carpet), Verdict::NoTrustedSource);
+    }
+
+    #[test]
+    fn an_unsteady_run_is_no_offset() {
+        let c = RecoveryConfig::default();
+        let mut run = GatedRun::default();
+        run.push(&c, -0.1, true);
+        for k in 1..c.reset_after_gated {
+            // The wheels keep speeding up against the IMU: spinning up.
+            run.push(&c, -0.1 - 0.03 * f32::from(k), false);
+        }
+        assert!(run.steady_len() < c.reset_after_gated);
+        assert_eq!(decide(&c, &evidence(&run, None)), Verdict::NoTrustedSource);
+        assert!(run.due(&c));
+    }
+
+    #[test]
+    fn a_jump_back_towards_the_filter_is_a_trusted_onset() {
+        let c = RecoveryConfig::default();
+        let mut run = GatedRun::default();
+        run.push(&c, 0.4, false);
+        assert!(!run.trusted_onset());
+        run.push(&c, 0.15, false);
+        assert!(run.trusted_onset());
+        run.push(&c, 0.5, false);
+        assert!(!run.trusted_onset());
+    }
+
+    #[test]
+    fn counts_every_verdict() {
+        let mut r = RecoveryCounts::default();
+        r.record(Timestamp(1), Verdict::Reset(ResetSource::Flow));
+        r.record(Timestamp(2), Verdict::Reset(ResetSource::Wheels));
+        r.record(Timestamp(3), Verdict::WheelsSlip);
+        r.record(Timestamp(4), Verdict::NoTrustedSource);
+        assert_eq!(r.resets(), 2);
+        assert_eq!((r.wheels_slip, r.no_trusted_source), (1, 1));
+        assert_eq!(r.last, Some((Timestamp(4), Verdict::NoTrustedSource)));
+        assert_eq!(Verdict::WheelsSlip.name(), "wheels_slip");
+    }
+}
