@@ -163,12 +163,19 @@ pub fn open(bytes: &[u8]) -> Result<(Header, Records<'_>), FormatError> {
         camera_t_bs: c.f32s()?,
         imu_t_bs: c.f32s()?,
     };
-    Ok((header, Records { cursor: c }))
+    Ok((
+        header,
+        Records {
+            cursor: c,
+            done: false,
+        },
+    ))
 }
 
 /// The records after the header, in stream order; stops at the end tag.
 pub struct Records<'a> {
     cursor: Cursor<'a>,
+    done: bool,
 }
 
 impl Records<'_> {
@@ -221,14 +228,13 @@ impl Records<'_> {
 impl Iterator for Records<'_> {
     type Item = Result<Record, FormatError>;
     fn next(&mut self) -> Option<Self::Item> {
-        match self.record() {
-            Ok(r) => r.map(Ok),
-            Err(e) => {
-                // Stop after the first error.
-                self.cursor.rest = &[];
-                Some(Err(e))
-            }
+        if self.done {
+            return None;
         }
+        let r = self.record();
+        // Stop at the end tag and after the first error.
+        self.done = !matches!(r, Ok(Some(_)));
+        r.transpose()
     }
 }
 
