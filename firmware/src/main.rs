@@ -108,8 +108,12 @@ fn sizes(out: &mut Out) {
     }
 }
 
+/// Stack painted at reset for the whole run's peak.
+const RUN_PAINT: usize = 256 * 1024;
+
 #[entry]
 fn main() -> ! {
+    let run_top = traction_firmware::stack::paint_depth(RUN_PAINT);
     let mut out = Out {
         host: hio::hstdout().ok(),
         line: [0; 256],
@@ -166,7 +170,24 @@ fn main() -> ! {
     let _ = writeln!(out, "dropped_measurements {dropped}");
     sizes(&mut out);
     let _ = summary.write(&mut out);
+    // The deepest the stack went: during a measured call, or anywhere else.
+    let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);
+    let lowest = outside.min(meter.lowest);
+    let _ = writeln!(
+        out,
+        "stack whole_run {} from_main {}",
+        cortex_m_rt_stack_start().saturating_sub(lowest),
+        run_top.saturating_sub(lowest)
+    );
     finish(&mut out, true)
+}
+
+/// The reset stack pointer (`_stack_start` of cortex-m-rt's `link.x`).
+fn cortex_m_rt_stack_start() -> usize {
+    unsafe extern "C" {
+        static _stack_start: u32;
+    }
+    core::ptr::addr_of!(_stack_start) as usize
 }
 
 fn finish(out: &mut Out, ok: bool) -> ! {

@@ -93,17 +93,19 @@ pub struct Meter {
     pub propagate_and_wheel: Samples,
     /// Peak stack per step, bytes.
     pub stack: [usize; Step::ALL.len()],
+    /// Lowest stack address any measured call reached.
+    pub lowest: usize,
     last_propagate: Option<u32>,
 }
 
 /// Ticks and stack bytes of one call of `f`.
 #[inline(always)]
-fn timed<R>(f: impl FnOnce() -> R) -> (R, u32, usize) {
+fn timed<R>(f: impl FnOnce() -> R) -> (R, u32, usize, usize) {
     let top = stack::paint();
     let t0 = systick::now();
     let r = stack::call(f);
     let t1 = systick::now();
-    (r, systick::elapsed(t0, t1), stack::used(top))
+    (r, systick::elapsed(t0, t1), stack::used(top), top)
 }
 
 impl Meter {
@@ -114,7 +116,7 @@ impl Meter {
         const EMPTY: u32 = 1024;
         let mut ticks = 0u32;
         for _ in 0..EMPTY {
-            let ((), t, _) = timed(|| core::hint::black_box(()));
+            let ((), t, _, _) = timed(|| core::hint::black_box(()));
             ticks += t;
         }
         let overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
@@ -125,6 +127,7 @@ impl Meter {
             propagate_and_wheel: Samples::new(),
             refused: [(0, 0); Step::ALL.len()],
             stack: [0; Step::ALL.len()],
+            lowest: usize::MAX,
             last_propagate: None,
         }
     }
@@ -143,7 +146,8 @@ impl Default for Meter {
 
 impl Probe for Meter {
     fn measure<T, E>(&mut self, step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
-        let (r, ticks, used) = timed(f);
+        let (r, ticks, used, top) = timed(f);
+        self.lowest = self.lowest.min(top - used);
         let i = step.index();
         if let Some(s) = self.stack.get_mut(i) {
             *s = (*s).max(used);

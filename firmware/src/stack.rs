@@ -26,8 +26,14 @@ pub fn sp() -> usize {
 /// function so that it writes only below that function's frame.
 #[inline(always)]
 pub fn paint() -> usize {
+    paint_depth(DEPTH)
+}
+
+/// Paints `[sp - depth, sp)`; gives `sp`.
+#[inline(always)]
+pub fn paint_depth(depth: usize) -> usize {
     let top = sp() & !3;
-    let mut a = top - DEPTH;
+    let mut a = top - depth;
     while a < top {
         // SAFETY: the words below the stack pointer are free (no interrupts,
         // no other thread); the RAM region is 4 MiB and the stack is far
@@ -41,7 +47,13 @@ pub fn paint() -> usize {
 /// Bytes below `top` (from [`paint`]) that were written since.
 #[inline(always)]
 pub fn used(top: usize) -> usize {
-    let mut a = top - DEPTH;
+    used_depth(top, DEPTH)
+}
+
+/// Bytes below `top` (from [`paint_depth`] with `depth`) that were written since.
+#[inline(always)]
+pub fn used_depth(top: usize, depth: usize) -> usize {
+    let mut a = top - depth;
     while a < top {
         // SAFETY: the same painted words, read back.
         if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
