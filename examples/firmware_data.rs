@@ -11,6 +11,11 @@
 //! camera motions that traction's own front end (`traction::frontend`)
 //! measures on the rendered 320x240 ceiling frames at 10 Hz. Records are in
 //! processing order: by time, and at equal times IMU, wheel, flow, camera.
+//!
+//! Also writes `firmware/data/frames160.bin` (format: `firmware/src/frames.rs`):
+//! [`FRAME_COUNT`] consecutive ceiling frames from [`FIRST_FRAME`] on,
+//! 2x2 box-averaged to 160x120 (intrinsics halved), for the firmware's
+//! front-end measurement.
 #![allow(missing_docs)]
 
 use std::path::PathBuf;
@@ -25,10 +30,17 @@ use traction::vslam_core::geometry::Extrinsics;
 #[allow(dead_code)]
 mod sample;
 
+#[path = "../firmware/src/frames.rs"]
+#[allow(dead_code)]
+mod frames;
+
 use sample::{Header, Record};
 
 /// The seed of the simulated run.
 const SEED: u64 = 7;
+/// First camera frame (3 s into the drive) and frames for the front end.
+const FIRST_FRAME: usize = 30;
+const FRAME_COUNT: usize = 3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()
@@ -37,16 +49,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or_else(|| {
             PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("firmware/data/sample.bin")
         });
-    let bytes = sample_data()?;
+    let (bytes, frames) = sample_data()?;
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
     }
     std::fs::write(&out, &bytes)?;
     println!("wrote {} ({} bytes)", out.display(), bytes.len());
+    let out = out.with_file_name("frames160.bin");
+    std::fs::write(&out, &frames)?;
+    println!("wrote {} ({} bytes)", out.display(), frames.len());
     Ok(())
 }
 
-fn sample_data() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+/// `img` (`w x h`) averaged over 2x2 blocks, rounded.
+fn half(img: &[u8], w: usize, h: usize) -> Vec<u8> {
+    let mut out = Vec::with_capacity(w / 2 * (h / 2));
+    for y in 0..h / 2 {
+        for x in 0..w / 2 {
+            let p = |dx: usize, dy: usize| u32::from(img[(2 * y + dy) * w + 2 * x + dx]);
+            out.push(((p(0, 0) + p(1, 0) + p(0, 1) + p(1, 1) + 2) / 4) as u8);
+        }
+    }
+    out
+}
+
+fn sample_data() -> Result<(Vec<u8>, Vec<u8>), Box<dyn std::error::Error>> {
     let scenario = Scenario::by_name("short").ok_or("no `short` scenario")?;
     let dir = std::env::temp_dir().join(format!("traction-firmware-data-{}", std::process::id()));
     let (ds, _truth) = generate(&scenario, SEED, &dir)?;
@@ -76,10 +103,28 @@ fn sample_data() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
         },
     )?;
     let mut motions = Vec::new();
-    for frame in frames {
+    let mut small = Vec::new();
+    let small_header = frames::FramesHeader {
+        width: w / 2,
+        height: h / 2,
+        // Pixel centres: u' = (u + 0.5) / 2 - 0.5.
+        intrinsics: [
+            fu / 2.0,
+            fv / 2.0,
+            (cu + 0.5) / 2.0 - 0.5,
+            (cv + 0.5) / 2.0 - 0.5,
+        ],
+        count: FRAME_COUNT,
+    };
+    frames::write_header(&small_header, &mut |b: &[u8]| small.extend_from_slice(b));
+    for (i, frame) in frames.iter().enumerate() {
         let img = load_gray(&frame.path)?;
         if let Ok(Some(m)) = frontend.process(frame.t, &img.view()?) {
             motions.push(m);
+        }
+        if (FIRST_FRAME..FIRST_FRAME + FRAME_COUNT).contains(&i) {
+            let pixels = half(&img.data, img.width, img.height);
+            frames::write_frame(frame.t, &pixels, &mut |b: &[u8]| small.extend_from_slice(b));
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -126,5 +171,5 @@ fn sample_data() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
         motions.len(),
         frames.len()
     );
-    Ok(bytes)
+    Ok((bytes, small))
 }

@@ -28,27 +28,65 @@
 #[allow(dead_code)]
 mod sample;
 
+#[path = "../firmware/src/frames.rs"]
+#[allow(dead_code)]
+mod frames;
+
 #[path = "../firmware/src/replay.rs"]
 #[allow(dead_code)]
 mod replay;
 
-use replay::{NoProbe, Summary, Value};
+use replay::{FrontEndRun, NoProbe, Summary, Value};
+use traction::frontend::FrontEndBuffers;
 
 static SAMPLE: &[u8] = include_bytes!("../firmware/data/sample.bin");
+static FRAMES: &[u8] = include_bytes!("../firmware/data/frames160.bin");
+
+/// The host's run of both parts of the firmware: the loop and the front end.
+struct Host {
+    summary: Summary,
+    frontend: FrontEndRun,
+}
+
+impl Host {
+    fn lines(&self) -> Vec<(String, Vec<Value>)> {
+        let mut v = Vec::new();
+        let mut push = |name: &str, values: &[Value]| v.push((name.to_string(), values.to_vec()));
+        self.summary.for_each(&mut push);
+        self.frontend.for_each(&mut push);
+        v
+    }
+
+    fn text(&self) -> String {
+        let mut text = String::new();
+        self.summary.write(&mut text).unwrap();
+        self.frontend.write(&mut text).unwrap();
+        text
+    }
+}
 
 /// Relative tolerance on floats.
 const REL_TOL: f32 = 1e-4;
 /// Absolute tolerance on floats near zero.
 const ABS_TOL: f32 = 1e-5;
 
-fn host_run() -> Summary {
-    replay::run(SAMPLE, &mut NoProbe).expect("the sample data runs")
-}
-
-fn host_lines(s: &Summary) -> Vec<(String, Vec<Value>)> {
-    let mut v = Vec::new();
-    s.for_each(|name, values| v.push((name.to_string(), values.to_vec())));
-    v
+fn host_run() -> Host {
+    let summary = replay::run(SAMPLE, &mut NoProbe).expect("the sample data runs");
+    let (header, _) = sample::open(SAMPLE).unwrap();
+    let (fh, _) = frames::open(FRAMES).expect("frame data");
+    // FrontEndConfig::new's defaults: 3 levels, 3x3 corner blocks.
+    let [a, b, c, d] = FrontEndBuffers::sizes(fh.width, fh.height, 3, 3);
+    let (mut b0, mut b1, mut b2, mut b3) =
+        (vec![0u8; a], vec![0u8; b], vec![0u8; c], vec![0f32; d]);
+    let buffers = FrontEndBuffers {
+        previous_frame: &mut b0,
+        previous_pyramid: &mut b1,
+        current_pyramid: &mut b2,
+        corner_scratch: &mut b3,
+    };
+    let frontend =
+        replay::run_frontend(FRAMES, &header, buffers, &mut NoProbe).expect("the frames run");
+    Host { summary, frontend }
 }
 
 fn get<'a>(lines: &'a [(String, Vec<Value>)], name: &str) -> &'a [Value] {
@@ -73,11 +111,11 @@ fn parse(text: &str) -> Vec<(String, Vec<String>)> {
 
 /// Every difference between the firmware's lines and the host's, and the
 /// largest relative difference of a float.
-fn compare(firmware: &str, host: &Summary) -> (Vec<String>, f32) {
+fn compare(firmware: &str, host: &Host) -> (Vec<String>, f32) {
     let fw = parse(firmware);
     let mut problems = Vec::new();
     let mut worst = 0.0f32;
-    let host = host_lines(host);
+    let host = host.lines();
     if fw.len() != host.len() {
         problems.push(format!(
             "{} result lines from the firmware, {} on the host",
@@ -127,11 +165,11 @@ fn compare(firmware: &str, host: &Summary) -> (Vec<String>, f32) {
 
 #[test]
 fn host_loop_runs_the_sample_data() {
-    let s = host_run();
-    let lines = host_lines(&s);
-    let mut text = String::new();
-    s.write(&mut text).unwrap();
+    let host = host_run();
+    let lines = host.lines();
+    let text = host.text();
     print!("{text}");
+    let s = &host.summary;
     // Every record read; the filter started and fused most of each stream.
     let records = get(&lines, "records");
     assert_eq!(
@@ -153,17 +191,27 @@ fn host_loop_runs_the_sample_data() {
     let running = s.scale.running_scale().expect("a running scale");
     assert!((running.scale - 2.4).abs() < 0.1, "scale {running:?}");
     assert!(s.scaled_frames > 90);
+    // The front end measured the motion between the 160x120 frames: about
+    // 12 mm forward (0.12 m/s for 0.1 s) over 2.4 m, along the camera's y.
+    let f = &host.frontend;
+    assert_eq!((f.frames, f.motions), (3, 2));
+    let m = f.last.expect("a camera motion");
+    assert!(m.inliers() > 30, "{m:?}");
+    assert!(
+        m.t_over_d().norm() > 0.002 && m.t_over_d().norm() < 0.05,
+        "{m:?}"
+    );
     // The printed form reads back exactly.
-    let (problems, worst) = compare(&text, &s);
+    let (problems, worst) = compare(&text, &host);
     assert!(problems.is_empty(), "{problems:#?}");
     assert_eq!(worst, 0.0);
 }
 
 #[test]
 fn comparison_flags_a_changed_value_or_count() {
-    let s = host_run();
-    let mut text = String::new();
-    s.write(&mut text).unwrap();
+    let host = host_run();
+    let text = host.text();
+    let s = &host.summary;
     // A position off by 1 mm in 3 m (3e-4 relative) is beyond the tolerance.
     let x = s.ekf.position().x;
     let changed = text.replacen(
@@ -172,7 +220,7 @@ fn comparison_flags_a_changed_value_or_count() {
         1,
     );
     assert_ne!(changed, text);
-    let (problems, _) = compare(&changed, &s);
+    let (problems, _) = compare(&changed, &host);
     assert_eq!(problems.len(), 1, "{problems:#?}");
     // One ulp is within it.
     let nudged = text.replacen(
@@ -180,7 +228,7 @@ fn comparison_flags_a_changed_value_or_count() {
         &format!("result ekf.position {:e}", f32::from_bits(x.to_bits() + 1)),
         1,
     );
-    assert!(compare(&nudged, &s).0.is_empty());
+    assert!(compare(&nudged, &host).0.is_empty());
     // A count differs: flagged.
     let fused = s.ekf.imu_counts().fused();
     let counts = text.replacen(
@@ -189,14 +237,14 @@ fn comparison_flags_a_changed_value_or_count() {
         1,
     );
     assert_ne!(counts, text);
-    assert_eq!(compare(&counts, &s).0.len(), 1);
+    assert_eq!(compare(&counts, &host).0.len(), 1);
     // A missing line: flagged.
     let short: String = text
         .lines()
         .filter(|l| !l.starts_with("result scale.running"))
         .map(|l| format!("{l}\n"))
         .collect();
-    assert!(!compare(&short, &s).0.is_empty());
+    assert!(!compare(&short, &host).0.is_empty());
 }
 
 #[test]
@@ -238,8 +286,8 @@ fn firmware_output_matches_host() {
         text.lines().any(|l| l.trim() == "firmware: done"),
         "the firmware did not finish"
     );
-    let s = host_run();
-    let (problems, worst) = compare(&text, &s);
+    let host = host_run();
+    let (problems, worst) = compare(&text, &host);
     println!(
         "firmware vs host: {} result lines, largest relative float difference {worst:e} \
          (tolerance {REL_TOL:e} relative or {ABS_TOL:e} absolute)",

@@ -95,17 +95,24 @@ pub struct Meter {
     pub stack: [usize; Step::ALL.len()],
     /// Lowest stack address any measured call reached.
     pub lowest: usize,
+    /// Bytes painted below the stack pointer before each call.
+    pub depth: usize,
     last_propagate: Option<u32>,
 }
 
 /// Ticks and stack bytes of one call of `f`.
 #[inline(always)]
-fn timed<R>(f: impl FnOnce() -> R) -> (R, u32, usize, usize) {
-    let top = stack::paint();
+fn timed<R>(depth: usize, f: impl FnOnce() -> R) -> (R, u32, usize, usize) {
+    let top = stack::paint_depth(depth);
     let t0 = systick::now();
     let r = stack::call(f);
     let t1 = systick::now();
-    (r, systick::elapsed(t0, t1), stack::used(top), top)
+    (
+        r,
+        systick::elapsed(t0, t1),
+        stack::used_depth(top, depth),
+        top,
+    )
 }
 
 impl Meter {
@@ -116,7 +123,7 @@ impl Meter {
         const EMPTY: u32 = 1024;
         let mut ticks = 0u32;
         for _ in 0..EMPTY {
-            let ((), t, _, _) = timed(|| core::hint::black_box(()));
+            let ((), t, _, _) = timed(stack::DEPTH, || core::hint::black_box(()));
             ticks += t;
         }
         let overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
@@ -128,6 +135,7 @@ impl Meter {
             refused: [(0, 0); Step::ALL.len()],
             stack: [0; Step::ALL.len()],
             lowest: usize::MAX,
+            depth: stack::DEPTH,
             last_propagate: None,
         }
     }
@@ -146,7 +154,7 @@ impl Default for Meter {
 
 impl Probe for Meter {
     fn measure<T, E>(&mut self, step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
-        let (r, ticks, used, top) = timed(f);
+        let (r, ticks, used, top) = timed(self.depth, f);
         self.lowest = self.lowest.min(top - used);
         let i = step.index();
         if let Some(s) = self.stack.get_mut(i) {

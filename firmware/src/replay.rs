@@ -19,13 +19,18 @@
 use core::fmt::{self, Write};
 
 use traction::ego_ekf::{EgoEkf, FilterConfig, FlowConfig};
+use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::adverse::SensorKind;
+use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
+use traction::vslam_core::image::ImageView;
+use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
 use traction::vslam_core::sensors::{FlowOptics, ImuSample};
 use traction::vslam_core::{Reject, SampleCounts};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
+use crate::frames;
 use crate::sample::{FormatError, Header, Record, open};
 
 /// Recent poses the scale pipeline keeps (as in `traction::Estimator`).
@@ -50,11 +55,14 @@ pub enum Step {
     ScaleFlow,
     /// `ScalePipeline::push_camera`.
     ScaleCamera,
+    /// `FrontEnd::process` of one camera frame (pyramid, corners, LK,
+    /// RANSAC homography, decomposition).
+    FrontEnd,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 8] = [
+    pub const ALL: [Step; 9] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -63,6 +71,7 @@ impl Step {
         Step::ScaleWheel,
         Step::ScaleFlow,
         Step::ScaleCamera,
+        Step::FrontEnd,
     ];
 
     /// Position in [`Step::ALL`].
@@ -81,6 +90,7 @@ impl Step {
             Step::ScaleWheel => "scale.push_wheel",
             Step::ScaleFlow => "scale.push_flow",
             Step::ScaleCamera => "scale.push_camera",
+            Step::FrontEnd => "frontend.process",
         }
     }
 }
@@ -250,6 +260,120 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
     })
 }
 
+/// What the camera path made of the embedded frames.
+#[derive(Clone, Copy, Debug)]
+pub struct FrontEndRun {
+    /// Frames processed.
+    pub frames: u32,
+    /// Camera motions measured.
+    pub motions: u32,
+    /// The last camera motion.
+    pub last: Option<CameraMotion>,
+    /// The front end's frame tallies.
+    pub counts: SampleCounts,
+}
+
+/// Runs traction's camera path (`traction::frontend`) over the embedded
+/// frames, in the caller's `buffers`, every frame through `probe`.
+pub fn run_frontend(
+    frame_data: &[u8],
+    header: &Header,
+    buffers: FrontEndBuffers<'_>,
+    probe: &mut impl Probe,
+) -> Result<FrontEndRun, RunError> {
+    let (h, frames) =
+        frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
+    let [fu, fv, cu, cv] = h.intrinsics;
+    let k = PinholeIntrinsics::new(fu, fv, cu, cv).map_err(|_| RunError::Config("intrinsics"))?;
+    let mount = Extrinsics::from_row_major(&header.camera_t_bs)
+        .map_err(|_| RunError::Config("camera T_BS"))?;
+    let config = FrontEndConfig::new(h.width, h.height, k, mount);
+    let mut frontend =
+        FrontEnd::new(config, buffers).map_err(|_| RunError::Config("front-end buffers"))?;
+    let mut run = FrontEndRun {
+        frames: 0,
+        motions: 0,
+        last: None,
+        counts: SampleCounts::new(),
+    };
+    for (t, pixels) in frames {
+        let view = ImageView::new(pixels, h.width, h.height, h.width)
+            .map_err(|_| RunError::Format(FormatError::Truncated))?;
+        run.frames += 1;
+        if let Ok(Some(m)) = probe.measure(Step::FrontEnd, || frontend.process(t, &view)) {
+            run.motions += 1;
+            run.last = Some(m);
+        }
+    }
+    run.counts = *frontend.counts();
+    Ok(run)
+}
+
+impl FrontEndRun {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f(
+            "frontend.frames",
+            &[Value::N(self.frames), Value::N(self.motions)],
+        );
+        f(
+            "frontend.counts",
+            &[
+                Value::N(self.counts.fused()),
+                Value::N(self.counts.rejected_total()),
+            ],
+        );
+        match self.last {
+            Some(m) => {
+                let t = m.t_over_d();
+                f(
+                    "frontend.t_over_d",
+                    &[Value::F(t.x), Value::F(t.y), Value::F(t.z)],
+                );
+                let q = traction::vslam_core::geometry::Quat::from_rotation_matrix(m.r());
+                f(
+                    "frontend.rotation_wxyz",
+                    &[Value::F(q.w), Value::F(q.i), Value::F(q.j), Value::F(q.k)],
+                );
+                f(
+                    "frontend.inliers",
+                    &[Value::N(u32::from(m.inliers())), Value::F(m.residual_px())],
+                );
+            }
+            None => f("frontend.t_over_d", &[]),
+        }
+    }
+
+    /// Writes one line `result NAME V...` per quantity.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
+}
+
+/// Writes `result NAME V...` lines for every quantity `for_each` gives.
+pub fn write_results(
+    out: &mut dyn Write,
+    for_each: impl FnOnce(&mut dyn FnMut(&str, &[Value])),
+) -> fmt::Result {
+    let mut result = Ok(());
+    for_each(&mut |name, values| {
+        if result.is_err() {
+            return;
+        }
+        result = (|| {
+            write!(out, "result {name}")?;
+            for v in values {
+                match v {
+                    Value::F(x) => write!(out, " {x:e}")?,
+                    Value::N(n) => write!(out, " {n}")?,
+                }
+            }
+            writeln!(out)
+        })();
+    });
+    result
+}
+
 /// One printed value: a float compared within tolerance, or an integer
 /// compared exactly.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -262,7 +386,7 @@ pub enum Value {
 
 impl Summary {
     /// Every printed quantity: `(name, values)`.
-    pub fn for_each(&self, mut f: impl FnMut(&str, &[Value])) {
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
         let e = &self.ekf;
         let v3 = |v: Vec3| [Value::F(v.x), Value::F(v.y), Value::F(v.z)];
         let q = e.attitude();
@@ -333,23 +457,7 @@ impl Summary {
 
     /// Writes one line `result NAME V...` per quantity; floats in the
     /// shortest form that reads back to the same `f32`.
-    pub fn write(&self, out: &mut impl Write) -> fmt::Result {
-        let mut result = Ok(());
-        self.for_each(|name, values| {
-            if result.is_err() {
-                return;
-            }
-            result = (|| {
-                write!(out, "result {name}")?;
-                for v in values {
-                    match v {
-                        Value::F(x) => write!(out, " {x:e}")?,
-                        Value::N(n) => write!(out, " {n}")?,
-                    }
-                }
-                writeln!(out)
-            })();
-        });
-        result
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
     }
 }
