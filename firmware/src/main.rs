@@ -126,7 +126,7 @@ fn sizes(out: &mut Out) {
 }
 
 /// Stack painted at reset for the whole run's peak.
-const RUN_PAINT: usize = 256 * 1024;
+const RUN_PAINT: usize = 1024 * 1024;
 
 #[entry]
 fn main() -> ! {
@@ -152,6 +152,17 @@ fn main() -> ! {
         out,
         "calibration instructions_per_tick {} overhead_instructions {}",
         meter.instructions_per_tick, meter.overhead
+    );
+    let (t0, t1, ticks, expected) =
+        systick::wrap_check(&mut core.SYST, 1_000_000, meter.instructions_per_tick);
+    let _ = writeln!(
+        out,
+        "systick wrap_check start {t0:#08x} end {t1:#08x} elapsed {ticks} expected {expected} {}",
+        if t1 > t0 && ticks.abs_diff(expected) <= 2 {
+            "ok"
+        } else {
+            "FAILED"
+        }
     );
     let summary = match replay::run(SAMPLE, meter) {
         Ok(s) => s,

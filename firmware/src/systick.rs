@@ -68,3 +68,16 @@ pub fn calibrate() -> f32 {
     let ticks = long.saturating_sub(short).max(1);
     (2 * (LONG - 1)) as f32 / ticks as f32
 }
+
+/// Checks the wrap arithmetic on the hardware (model): clears the counter
+/// (it reloads `0xFF_FFFF` on the next tick, ARMv7-M ARM B3.3.1), so a
+/// measurement started now necessarily crosses the reload; gives
+/// `(start, end, elapsed ticks, expected ticks)` for `2 * n` instructions.
+pub fn wrap_check(syst: &mut SYST, n: u32, instructions_per_tick: f32) -> (u32, u32, u32, u32) {
+    syst.clear_current();
+    let t0 = now();
+    spin(n);
+    let t1 = now();
+    let expected = (2.0 * n as f32 / instructions_per_tick) as u32;
+    (t0, t1, elapsed(t0, t1), expected)
+}
