@@ -143,9 +143,16 @@ fn main() -> ! {
     let Some(meter) = cortex_m::singleton!(: Meter = Meter::new()) else {
         finish(&mut out, false)
     };
+    // CPUID part number (ARMv7-M ARM B3.2.3): 0xC24 Cortex-M4, 0xC27 Cortex-M7.
+    let cpuid = core.CPUID.base.read();
+    let cpu = match (cpuid >> 4) & 0xFFF {
+        0xC24 => "Cortex-M4",
+        0xC27 => "Cortex-M7",
+        _ => "unknown core",
+    };
     let _ = writeln!(
         out,
-        "traction firmware: Cortex-M4F, QEMU mps2-an386, -icount shift=0; sample data {} bytes",
+        "traction firmware: {cpu} (CPUID {cpuid:#010x}), thumbv7em-none-eabihf; sample data {} bytes",
         SAMPLE.len()
     );
     let _ = writeln!(
