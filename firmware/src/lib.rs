@@ -1,0 +1,15 @@
+//! traction on a Cortex-M4F under QEMU: the EKF loop and the scale pipeline
+//! over embedded sample data, with instruction counts, stack high-water marks
+//! and the sizes of the estimator's objects. See `firmware/README.md`.
+//!
+//! [`sample`], [`frames`] and [`replay`] are target-independent (the host check includes
+//! them by `#[path]`); [`systick`], [`stack`] and [`meter`] are the
+//! Cortex-M measurement.
+#![no_std]
+
+pub mod frames;
+pub mod meter;
+pub mod replay;
+pub mod sample;
+pub mod stack;
+pub mod systick;

@@ -1,0 +1,463 @@
+//! The firmware's estimation loop over the embedded sample data, shared
+//! word for word with the host check (`tests/firmware_match.rs` includes this
+//! file by `#[path]`), so the firmware and the host run the same code on the
+//! same bytes.
+//!
+//! Per record, in stream order, as `traction::Estimator` does it (without the
+//! surface model and jolt monitor, which need segmentation maps):
+//!
+//! - IMU: validated with the filter's range, [`EgoEkf::propagate`] (250 Hz),
+//!   then the scale pipeline's IMU window;
+//! - wheel counts: `wheel-odom` odometry, the scale pipeline's wheel window,
+//!   [`EgoEkf::fuse_wheel`] (the wheel rate, 50 Hz);
+//! - flow report: the scale pipeline's flow window, [`EgoEkf::fuse_flow`];
+//! - camera motion: [`ScalePipeline::push_camera`] (10 Hz).
+//!
+//! Every call is made through a [`Probe`], which the firmware uses to count
+//! instructions and paint the stack, and the host leaves empty.
+
+use core::fmt::{self, Write};
+
+use traction::ego_ekf::{EgoEkf, FilterConfig, FlowConfig};
+use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
+use traction::vslam_core::adverse::SensorKind;
+use traction::vslam_core::decompose::PinholeIntrinsics;
+use traction::vslam_core::geometry::{Extrinsics, Vec3};
+use traction::vslam_core::image::ImageView;
+use traction::vslam_core::scale::CameraMotion;
+use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
+use traction::vslam_core::sensors::{FlowOptics, ImuSample};
+use traction::vslam_core::{Reject, SampleCounts};
+use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
+
+use crate::frames;
+use crate::sample::{FormatError, Header, Record, open};
+
+/// Recent poses the scale pipeline keeps (as in `traction::Estimator`).
+pub const TRAJECTORY: usize = 32;
+
+/// The calls the loop makes, each measured on its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// `EgoEkf::propagate`: nominal state, 35x35 covariance, clone, ZUPT when due.
+    Propagate,
+    /// `EgoEkf::fuse_wheel`.
+    FuseWheel,
+    /// `EgoEkf::fuse_flow`.
+    FuseFlow,
+    /// `DiffDriveOdometry::update`.
+    Odometry,
+    /// `ScalePipeline::push_imu`.
+    ScaleImu,
+    /// `ScalePipeline::push_wheel`.
+    ScaleWheel,
+    /// `ScalePipeline::push_flow`.
+    ScaleFlow,
+    /// `ScalePipeline::push_camera`.
+    ScaleCamera,
+    /// `FrontEnd::process` of one camera frame (pyramid, corners, LK,
+    /// RANSAC homography, decomposition).
+    FrontEnd,
+}
+
+impl Step {
+    /// Every step, in report order.
+    pub const ALL: [Step; 9] = [
+        Step::Propagate,
+        Step::FuseWheel,
+        Step::FuseFlow,
+        Step::Odometry,
+        Step::ScaleImu,
+        Step::ScaleWheel,
+        Step::ScaleFlow,
+        Step::ScaleCamera,
+        Step::FrontEnd,
+    ];
+
+    /// Position in [`Step::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Name in reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Step::Propagate => "ekf.propagate",
+            Step::FuseWheel => "ekf.fuse_wheel",
+            Step::FuseFlow => "ekf.fuse_flow",
+            Step::Odometry => "odometry.update",
+            Step::ScaleImu => "scale.push_imu",
+            Step::ScaleWheel => "scale.push_wheel",
+            Step::ScaleFlow => "scale.push_flow",
+            Step::ScaleCamera => "scale.push_camera",
+            Step::FrontEnd => "frontend.process",
+        }
+    }
+}
+
+/// Wraps every call of the loop: measure it, or just run it.
+pub trait Probe {
+    /// Runs `f`, the call `step`; its outcome tells a completed call from
+    /// an early refusal.
+    fn measure<T, E>(&mut self, step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E>;
+}
+
+/// A probe that only runs the calls (the host).
+pub struct NoProbe;
+
+impl Probe for NoProbe {
+    fn measure<T, E>(&mut self, _step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
+        f()
+    }
+}
+
+/// Why the run could not start or finish.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RunError {
+    /// The sample data is malformed.
+    Format(FormatError),
+    /// The header gives a configuration the filter, odometry or pipeline refuses.
+    Config(&'static str),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RunError::Format(e) => write!(f, "sample data: {e}"),
+            RunError::Config(what) => write!(f, "configuration refused: {what}"),
+        }
+    }
+}
+
+/// The configurations of the run, derived from the header as `host-sim
+/// replay` derives them from an ASL dataset.
+pub struct RunConfig {
+    /// The EKF.
+    pub filter: FilterConfig,
+    /// Wheel odometry.
+    pub odometry: DiffDriveParams,
+    /// The scale pipeline.
+    pub scale: PipelineConfig,
+}
+
+/// Builds the configurations from the header.
+pub fn config(h: &Header) -> Result<RunConfig, RunError> {
+    let extrinsics =
+        |m: &[f32; 16], what| Extrinsics::from_row_major(m).map_err(|_| RunError::Config(what));
+    let mut filter = FilterConfig::default();
+    let [accel_density, gyro_density, accel_walk, gyro_walk] = h.imu_noise;
+    filter.imu_noise.accel_density = accel_density;
+    filter.imu_noise.gyro_density = gyro_density;
+    filter.imu_noise.accel_random_walk = accel_walk;
+    filter.imu_noise.gyro_random_walk = gyro_walk;
+    let half = 0.5 * h.wheel_base;
+    let [radius_left, radius_right] = h.wheel_radius;
+    filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
+    filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
+    filter.robot.radius = 0.5 * (radius_left + radius_right);
+    let optics = FlowOptics::new(
+        h.flow_counts_per_radian,
+        h.flow_height,
+        extrinsics(&h.flow_t_bs, "flow T_BS")?,
+    )
+    .map_err(|_| RunError::Config("flow optics"))?;
+    filter.flow = Some(FlowConfig::new(optics));
+    let odometry = DiffDriveParams::new(
+        h.ticks_per_revolution,
+        radius_left,
+        radius_right,
+        h.wheel_base,
+        3.0,
+        500_000_000,
+    )
+    .map_err(|_| RunError::Config("wheel odometry"))?;
+    let scale = PipelineConfig {
+        camera: extrinsics(&h.camera_t_bs, "camera T_BS")?,
+        imu: extrinsics(&h.imu_t_bs, "IMU T_BS")?,
+        flow_optics: Some(optics),
+        ..PipelineConfig::default()
+    };
+    Ok(RunConfig {
+        filter,
+        odometry,
+        scale,
+    })
+}
+
+/// What the run ends with: the state the firmware prints and the host
+/// compares.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    /// The filter after the last record.
+    pub ekf: EgoEkf,
+    /// The odometry after the last record.
+    pub odometry: DiffDriveOdometry,
+    /// The scale pipeline after the last record.
+    pub scale: ScalePipeline<TRAJECTORY>,
+    /// IMU samples refused by the range check before the filter.
+    pub imu_invalid: SampleCounts,
+    /// Records of each kind: IMU, wheel, flow, camera.
+    pub records: [u32; 4],
+    /// Camera motions that got a scale.
+    pub scaled_frames: u32,
+}
+
+/// Runs the loop over `data`, every call through `probe`.
+pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
+    let (header, records) = open(data).map_err(RunError::Format)?;
+    let cfg = config(&header)?;
+    let mut ekf = EgoEkf::new(cfg.filter).map_err(|_| RunError::Config("filter"))?;
+    let mut odometry = DiffDriveOdometry::new(cfg.odometry);
+    let mut scale: ScalePipeline<TRAJECTORY> =
+        ScalePipeline::new(cfg.scale).map_err(|_| RunError::Config("scale pipeline"))?;
+    let mut imu_invalid = SampleCounts::new();
+    let mut counts = [0u32; 4];
+    let mut scaled_frames = 0u32;
+    let (gyro_max, accel_max) = (cfg.filter.imu_gyro_max, cfg.filter.imu_accel_max);
+    for record in records {
+        match record.map_err(RunError::Format)? {
+            Record::Imu(raw) => {
+                counts[0] += 1;
+                match ImuSample::with_range(&raw, gyro_max, accel_max) {
+                    Ok(s) => {
+                        let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
+                        if step.is_ok() {
+                            let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
+                        }
+                    }
+                    Err(r) => imu_invalid.rejected_one(r),
+                }
+            }
+            Record::Wheel(ticks) => {
+                counts[1] += 1;
+                let step = probe.measure(Step::Odometry, || odometry.update(ticks));
+                if let Ok(Some(step)) = step {
+                    let _ = probe.measure(Step::ScaleWheel, || scale.push_wheel(&step.delta));
+                    let _ = probe.measure(Step::FuseWheel, || ekf.fuse_wheel(&step.rates));
+                }
+            }
+            Record::Flow(s) => {
+                counts[2] += 1;
+                let _ = probe.measure(Step::ScaleFlow, || scale.push_flow(&s));
+                let _ = probe.measure(Step::FuseFlow, || ekf.fuse_flow(&s));
+            }
+            Record::Camera(m) => {
+                counts[3] += 1;
+                let d = probe.measure(Step::ScaleCamera, || scale.push_camera(&m));
+                if matches!(d, Ok(ref d) if d.scale.is_ok()) {
+                    scaled_frames += 1;
+                }
+            }
+        }
+    }
+    Ok(Summary {
+        ekf,
+        odometry,
+        scale,
+        imu_invalid,
+        records: counts,
+        scaled_frames,
+    })
+}
+
+/// What the camera path made of the embedded frames.
+#[derive(Clone, Copy, Debug)]
+pub struct FrontEndRun {
+    /// Frames processed.
+    pub frames: u32,
+    /// Camera motions measured.
+    pub motions: u32,
+    /// The last camera motion.
+    pub last: Option<CameraMotion>,
+    /// The front end's frame tallies.
+    pub counts: SampleCounts,
+}
+
+/// Runs traction's camera path (`traction::frontend`) over the embedded
+/// frames, in the caller's `buffers`, every frame through `probe`.
+pub fn run_frontend(
+    frame_data: &[u8],
+    header: &Header,
+    buffers: FrontEndBuffers<'_>,
+    probe: &mut impl Probe,
+) -> Result<FrontEndRun, RunError> {
+    let (h, frames) =
+        frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
+    let [fu, fv, cu, cv] = h.intrinsics;
+    let k = PinholeIntrinsics::new(fu, fv, cu, cv).map_err(|_| RunError::Config("intrinsics"))?;
+    let mount = Extrinsics::from_row_major(&header.camera_t_bs)
+        .map_err(|_| RunError::Config("camera T_BS"))?;
+    let config = FrontEndConfig::new(h.width, h.height, k, mount);
+    let mut frontend =
+        FrontEnd::new(config, buffers).map_err(|_| RunError::Config("front-end buffers"))?;
+    let mut run = FrontEndRun {
+        frames: 0,
+        motions: 0,
+        last: None,
+        counts: SampleCounts::new(),
+    };
+    for (t, pixels) in frames {
+        let view = ImageView::new(pixels, h.width, h.height, h.width)
+            .map_err(|_| RunError::Format(FormatError::Truncated))?;
+        run.frames += 1;
+        if let Ok(Some(m)) = probe.measure(Step::FrontEnd, || frontend.process(t, &view)) {
+            run.motions += 1;
+            run.last = Some(m);
+        }
+    }
+    run.counts = *frontend.counts();
+    Ok(run)
+}
+
+impl FrontEndRun {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f(
+            "frontend.frames",
+            &[Value::N(self.frames), Value::N(self.motions)],
+        );
+        f(
+            "frontend.counts",
+            &[
+                Value::N(self.counts.fused()),
+                Value::N(self.counts.rejected_total()),
+            ],
+        );
+        match self.last {
+            Some(m) => {
+                let t = m.t_over_d();
+                f(
+                    "frontend.t_over_d",
+                    &[Value::F(t.x), Value::F(t.y), Value::F(t.z)],
+                );
+                let q = traction::vslam_core::geometry::Quat::from_rotation_matrix(m.r());
+                f(
+                    "frontend.rotation_wxyz",
+                    &[Value::F(q.w), Value::F(q.i), Value::F(q.j), Value::F(q.k)],
+                );
+                f(
+                    "frontend.inliers",
+                    &[Value::N(u32::from(m.inliers())), Value::F(m.residual_px())],
+                );
+            }
+            None => f("frontend.t_over_d", &[]),
+        }
+    }
+
+    /// Writes one line `result NAME V...` per quantity.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
+}
+
+/// Writes `result NAME V...` lines for every quantity `for_each` gives.
+pub fn write_results(
+    out: &mut dyn Write,
+    for_each: impl FnOnce(&mut dyn FnMut(&str, &[Value])),
+) -> fmt::Result {
+    let mut result = Ok(());
+    for_each(&mut |name, values| {
+        if result.is_err() {
+            return;
+        }
+        result = (|| {
+            write!(out, "result {name}")?;
+            for v in values {
+                match v {
+                    Value::F(x) => write!(out, " {x:e}")?,
+                    Value::N(n) => write!(out, " {n}")?,
+                }
+            }
+            writeln!(out)
+        })();
+    });
+    result
+}
+
+/// One printed value: a float compared within tolerance, or an integer
+/// compared exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// A float.
+    F(f32),
+    /// A count.
+    N(u32),
+}
+
+impl Summary {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        let e = &self.ekf;
+        let v3 = |v: Vec3| [Value::F(v.x), Value::F(v.y), Value::F(v.z)];
+        let q = e.attitude();
+        let counts = |c: &SampleCounts| {
+            [
+                Value::N(c.fused()),
+                Value::N(c.gated()),
+                Value::N(c.rejected_total()),
+            ]
+        };
+        f("ekf.position", &v3(e.position()));
+        f("ekf.velocity", &v3(e.velocity()));
+        f(
+            "ekf.attitude_wxyz",
+            &[Value::F(q.w), Value::F(q.i), Value::F(q.j), Value::F(q.k)],
+        );
+        let [l, r] = e.wheel_radii();
+        f("ekf.wheel_radii", &[Value::F(l), Value::F(r)]);
+        f("ekf.accel_bias", &v3(e.accel_bias()));
+        f("ekf.gyro_bias", &v3(e.gyro_bias()));
+        f("ekf.position_std", &v3(e.position_std()));
+        f("ekf.imu_counts", &counts(e.imu_counts()));
+        f("ekf.wheel_counts", &counts(e.wheel_counts()));
+        f("ekf.flow_counts", &counts(e.flow_counts()));
+        f("ekf.zupt_counts", &counts(e.zupt_counts()));
+        match self.scale.running_scale() {
+            Some(s) => f(
+                "scale.running",
+                &[
+                    Value::F(s.scale),
+                    Value::F(s.sigma),
+                    Value::N(u32::from(s.count)),
+                ],
+            ),
+            None => f("scale.running", &[]),
+        }
+        let b = self.scale.body_pose();
+        f("scale.body_position", &v3(b.translation.vector));
+        let bq = b.rotation;
+        f(
+            "scale.body_attitude_wxyz",
+            &[
+                Value::F(bq.w),
+                Value::F(bq.i),
+                Value::F(bq.j),
+                Value::F(bq.k),
+            ],
+        );
+        f("scale.scaled_frames", &[Value::N(self.scaled_frames)]);
+        for (name, kind) in [
+            ("scale.wheel_counts", SensorKind::Wheel),
+            ("scale.flow_counts", SensorKind::Flow),
+            ("scale.camera_counts", SensorKind::Camera),
+            ("scale.imu_counts", SensorKind::Imu),
+        ] {
+            f(name, &counts(&self.scale.counts(kind)));
+        }
+        f("odometry.counts", &counts(self.odometry.counts()));
+        f("records", &self.records.map(Value::N));
+        f(
+            "imu.invalid",
+            &[
+                Value::N(self.imu_invalid.rejected(Reject::Saturated)),
+                Value::N(self.imu_invalid.rejected_total()),
+            ],
+        );
+    }
+
+    /// Writes one line `result NAME V...` per quantity; floats in the
+    /// shortest form that reads back to the same `f32`.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
+}

@@ -1,0 +1,301 @@
+//! The firmware's loop on the host: `firmware/src/replay.rs` and
+//! `firmware/src/sample.rs` compiled here by `#[path]`, run on the same
+//! `firmware/data/sample.bin` the firmware embeds.
+//!
+//! - `host_loop_runs_the_sample_data` checks the host run itself;
+//! - `firmware_output_matches_host` (ignored; `firmware/check` runs it with
+//!   `FIRMWARE_OUTPUT=<QEMU output>`) compares every `result` line the
+//!   firmware printed with the host's: counts exactly, floats within
+//!   [`REL_TOL`] relative or [`ABS_TOL`] absolute.
+//!
+//! Why a tolerance at all: both sides run the same f32 operations in the
+//! same order (Rust never contracts `a * b + c` into a fused multiply-add and
+//! LLVM does not reassociate floats), and `sqrt` is correctly rounded on
+//! both. What may differ is the last bit of transcendental functions
+//! (`sinf`, `cosf`, `atan2f`, `expf`): the firmware uses the `libm` crate,
+//! while on the host nalgebra's `std` feature (enabled by other host crates)
+//! routes its own calls to the platform's libm. Those 1-ulp differences pass
+//! through 3,000 filter steps that contract errors (the covariance update),
+//! so the end state agrees to a few ulps times the condition of the problem:
+//! `1e-4` relative is 800 ulps of f32, `1e-5` absolute covers quantities that
+//! end near zero (biases, the attitude's roll and pitch components).
+//! Measured: the release firmware and the host agree bit for bit (largest
+//! difference 0); the tolerance is for builds that differ in those last bits
+//! (another libm, `-C target-cpu`, fused multiply-add experiments).
+#![allow(missing_docs)]
+
+#[path = "../firmware/src/sample.rs"]
+#[allow(dead_code)]
+mod sample;
+
+#[path = "../firmware/src/frames.rs"]
+#[allow(dead_code)]
+mod frames;
+
+#[path = "../firmware/src/replay.rs"]
+#[allow(dead_code)]
+mod replay;
+
+use replay::{FrontEndRun, NoProbe, Summary, Value};
+use traction::frontend::FrontEndBuffers;
+
+static SAMPLE: &[u8] = include_bytes!("../firmware/data/sample.bin");
+static FRAMES: &[u8] = include_bytes!("../firmware/data/frames160.bin");
+
+/// The host's run of both parts of the firmware: the loop and the front end.
+struct Host {
+    summary: Summary,
+    frontend: FrontEndRun,
+}
+
+impl Host {
+    fn lines(&self) -> Vec<(String, Vec<Value>)> {
+        let mut v = Vec::new();
+        let mut push = |name: &str, values: &[Value]| v.push((name.to_string(), values.to_vec()));
+        self.summary.for_each(&mut push);
+        self.frontend.for_each(&mut push);
+        v
+    }
+
+    fn text(&self) -> String {
+        let mut text = String::new();
+        self.summary.write(&mut text).unwrap();
+        self.frontend.write(&mut text).unwrap();
+        text
+    }
+}
+
+/// Relative tolerance on floats.
+const REL_TOL: f32 = 1e-4;
+/// Absolute tolerance on floats near zero.
+const ABS_TOL: f32 = 1e-5;
+
+fn host_run() -> Host {
+    let summary = replay::run(SAMPLE, &mut NoProbe).expect("the sample data runs");
+    let (header, _) = sample::open(SAMPLE).unwrap();
+    let (fh, _) = frames::open(FRAMES).expect("frame data");
+    // FrontEndConfig::new's defaults: 3 levels, 3x3 corner blocks.
+    let [a, b, c, d] = FrontEndBuffers::sizes(fh.width, fh.height, 3, 3);
+    let (mut b0, mut b1, mut b2, mut b3) =
+        (vec![0u8; a], vec![0u8; b], vec![0u8; c], vec![0f32; d]);
+    let buffers = FrontEndBuffers {
+        previous_frame: &mut b0,
+        previous_pyramid: &mut b1,
+        current_pyramid: &mut b2,
+        corner_scratch: &mut b3,
+    };
+    let frontend =
+        replay::run_frontend(FRAMES, &header, buffers, &mut NoProbe).expect("the frames run");
+    Host { summary, frontend }
+}
+
+fn get<'a>(lines: &'a [(String, Vec<Value>)], name: &str) -> &'a [Value] {
+    &lines
+        .iter()
+        .find(|(n, _)| n == name)
+        .unwrap_or_else(|| panic!("no `{name}`"))
+        .1
+}
+
+/// `result NAME V...` lines of a firmware output.
+fn parse(text: &str) -> Vec<(String, Vec<String>)> {
+    text.lines()
+        .filter_map(|l| l.strip_prefix("result "))
+        .map(|l| {
+            let mut it = l.split_whitespace();
+            let name = it.next().unwrap_or_default().to_string();
+            (name, it.map(str::to_string).collect())
+        })
+        .collect()
+}
+
+/// Every difference between the firmware's lines and the host's, and the
+/// largest relative difference of a float.
+fn compare(firmware: &str, host: &Host) -> (Vec<String>, f32) {
+    let fw = parse(firmware);
+    let mut problems = Vec::new();
+    let mut worst = 0.0f32;
+    let host = host.lines();
+    if fw.len() != host.len() {
+        problems.push(format!(
+            "{} result lines from the firmware, {} on the host",
+            fw.len(),
+            host.len()
+        ));
+    }
+    for (name, values) in &host {
+        let Some((_, got)) = fw.iter().find(|(n, _)| n == name) else {
+            problems.push(format!("`{name}` missing from the firmware output"));
+            continue;
+        };
+        if got.len() != values.len() {
+            problems.push(format!(
+                "`{name}`: {} values from the firmware, {} on the host",
+                got.len(),
+                values.len()
+            ));
+            continue;
+        }
+        for (i, (g, want)) in got.iter().zip(values).enumerate() {
+            match want {
+                Value::N(n) => {
+                    if g.parse::<u32>().ok() != Some(*n) {
+                        problems.push(format!("`{name}`[{i}]: firmware {g}, host {n}"));
+                    }
+                }
+                Value::F(x) => match g.parse::<f32>() {
+                    Ok(y) => {
+                        let d = (y - x).abs();
+                        if x.abs() > ABS_TOL {
+                            worst = worst.max(d / x.abs());
+                        }
+                        if !(d <= ABS_TOL || d <= REL_TOL * x.abs()) {
+                            problems.push(format!(
+                                "`{name}`[{i}]: firmware {y:e}, host {x:e} (difference {d:e})"
+                            ));
+                        }
+                    }
+                    Err(_) => problems.push(format!("`{name}`[{i}]: `{g}` is not a number")),
+                },
+            }
+        }
+    }
+    (problems, worst)
+}
+
+#[test]
+fn host_loop_runs_the_sample_data() {
+    let host = host_run();
+    let lines = host.lines();
+    let text = host.text();
+    print!("{text}");
+    let s = &host.summary;
+    // Every record read; the filter started and fused most of each stream.
+    let records = get(&lines, "records");
+    assert_eq!(
+        records,
+        &[Value::N(3001), Value::N(601), Value::N(1200), Value::N(120)]
+    );
+    assert!(s.ekf.is_initialised());
+    let imu = s.ekf.imu_counts();
+    assert!(imu.fused() > 2900, "IMU fused {}", imu.fused());
+    assert!(s.ekf.wheel_counts().fused() > 550);
+    assert!(s.ekf.flow_counts().fused() > 900);
+    // The 12 s office drive: about 3.3 m ahead; the EKF and the camera
+    // trajectory scaled by the pipeline agree.
+    let p = s.ekf.position();
+    assert!(p.x > 2.5 && p.x < 4.0, "EKF position {p:?}");
+    let b = s.scale.body_pose().translation.vector;
+    assert!((b - p).norm() < 0.3, "camera {b:?} vs EKF {p:?}");
+    // The scale is the camera's distance to the 2.5 m ceiling (camera at 0.1 m).
+    let running = s.scale.running_scale().expect("a running scale");
+    assert!((running.scale - 2.4).abs() < 0.1, "scale {running:?}");
+    assert!(s.scaled_frames > 90);
+    // The front end measured the motion between the 160x120 frames: about
+    // 12 mm forward (0.12 m/s for 0.1 s) over 2.4 m, along the camera's y.
+    let f = &host.frontend;
+    assert_eq!((f.frames, f.motions), (3, 2));
+    let m = f.last.expect("a camera motion");
+    assert!(m.inliers() > 30, "{m:?}");
+    assert!(
+        m.t_over_d().norm() > 0.002 && m.t_over_d().norm() < 0.05,
+        "{m:?}"
+    );
+    // The printed form reads back exactly.
+    let (problems, worst) = compare(&text, &host);
+    assert!(problems.is_empty(), "{problems:#?}");
+    assert_eq!(worst, 0.0);
+}
+
+#[test]
+fn comparison_flags_a_changed_value_or_count() {
+    let host = host_run();
+    let text = host.text();
+    let s = &host.summary;
+    // A position off by 1 mm in 3 m (3e-4 relative) is beyond the tolerance.
+    let x = s.ekf.position().x;
+    let changed = text.replacen(
+        &format!("result ekf.position {x:e}"),
+        &format!("result ekf.position {:e}", x + 1e-3),
+        1,
+    );
+    assert_ne!(changed, text);
+    let (problems, _) = compare(&changed, &host);
+    assert_eq!(problems.len(), 1, "{problems:#?}");
+    // One ulp is within it.
+    let nudged = text.replacen(
+        &format!("result ekf.position {x:e}"),
+        &format!("result ekf.position {:e}", f32::from_bits(x.to_bits() + 1)),
+        1,
+    );
+    assert!(compare(&nudged, &host).0.is_empty());
+    // A count differs: flagged.
+    let fused = s.ekf.imu_counts().fused();
+    let counts = text.replacen(
+        &format!("result ekf.imu_counts {fused} "),
+        &format!("result ekf.imu_counts {} ", fused + 1),
+        1,
+    );
+    assert_ne!(counts, text);
+    assert_eq!(compare(&counts, &host).0.len(), 1);
+    // A missing line: flagged.
+    let short: String = text
+        .lines()
+        .filter(|l| !l.starts_with("result scale.running"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(!compare(&short, &host).0.is_empty());
+}
+
+#[test]
+fn sample_format_round_trips() {
+    let (header, records) = sample::open(SAMPLE).unwrap();
+    let records: Vec<_> = records.collect::<Result<_, _>>().unwrap();
+    let mut bytes = Vec::new();
+    let mut sink = |b: &[u8]| bytes.extend_from_slice(b);
+    sample::write_header(&header, &mut sink);
+    for r in &records {
+        sample::write_record(r, &mut sink);
+    }
+    sample::write_end(&mut sink);
+    assert_eq!(bytes, SAMPLE);
+    // Truncated or foreign data is an error, never a panic.
+    assert!(matches!(
+        sample::open(&SAMPLE[..3]),
+        Err(sample::FormatError::Truncated)
+    ));
+    assert!(matches!(
+        sample::open(b"NOPE\x01\x00"),
+        Err(sample::FormatError::NotSampleData)
+    ));
+    let (_, cut) = sample::open(&SAMPLE[..SAMPLE.len() / 2]).unwrap();
+    assert_eq!(
+        cut.last(),
+        Some(Err(sample::FormatError::Truncated)),
+        "a stream cut in the middle ends in an error"
+    );
+}
+
+#[test]
+#[ignore = "needs the firmware's QEMU output: run firmware/check"]
+fn firmware_output_matches_host() {
+    let path = std::env::var("FIRMWARE_OUTPUT")
+        .expect("FIRMWARE_OUTPUT names the file with the firmware's QEMU output");
+    let text = std::fs::read_to_string(&path).expect("the firmware output file");
+    assert!(
+        text.lines().any(|l| l.trim() == "firmware: done"),
+        "the firmware did not finish"
+    );
+    let host = host_run();
+    let (problems, worst) = compare(&text, &host);
+    println!(
+        "firmware vs host: {} result lines, largest relative float difference {worst:e} \
+         (tolerance {REL_TOL:e} relative or {ABS_TOL:e} absolute)",
+        parse(&text).len()
+    );
+    assert!(
+        problems.is_empty(),
+        "firmware and host differ:\n{}",
+        problems.join("\n")
+    );
+}
