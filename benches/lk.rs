@@ -2,7 +2,16 @@
 //! known homography: 100 Shi-Tomasi corners, 21x21 window, 3 levels (the
 //! setting OpenCV's `calcOpticalFlowPyrLK` is usually quoted at, ~1 ms).
 //! Loading, warping, pyramids and corners are built outside the timer; the
-//! pyramid build and the corner detection have their own benches.
+//! pyramid build and the corner detection have their own benches, and
+//! `lk_with_pyramids` times what `cv2.calcOpticalFlowPyrLK` does when handed
+//! two images: both pyramids plus the tracking.
+//!
+//! With `LK_PEER_DIR` set, the bench first writes its exact input there for
+//! the OpenCV peer (`benches/peer/opencv_lk.py`, driven by
+//! `benches/peer/run_lk_peer.sh`): `first.pgm`, `second.pgm`, `points.txt`
+//! (corner `x y` and the ground-truth position `x y` under the homography,
+//! f64), `config.txt` (window, levels, iterations, epsilon) and `ours.txt`
+//! (our tracked position and status per corner).
 
 #[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
 mod lk_support;
@@ -42,6 +51,19 @@ fn bench(c: &mut Criterion) {
     let pa = Pyramid::build(&va, 3, &mut sa).unwrap();
     let pb = Pyramid::build(&vb, 3, &mut sb).unwrap();
     let mut results = vec![TrackResult::EMPTY; points.len()];
+    if let Some(dir) = std::env::var_os("LK_PEER_DIR") {
+        let tracker = Tracker::new(LkConfig::default()).unwrap();
+        tracker.track(&pa, &pb, &points, &mut results).unwrap();
+        peer::write(
+            std::path::Path::new(&dir),
+            &first,
+            &second,
+            &points,
+            &h,
+            &results,
+        )
+        .unwrap();
+    }
 
     let variants = [
         ("lk/100_corners_21x21_3_levels", LkConfig::default()),
@@ -78,6 +100,20 @@ fn bench(c: &mut Criterion) {
         });
     }
 
+    // What OpenCV's calcOpticalFlowPyrLK does with two images: both pyramids
+    // and the tracking (the front end builds only the new frame's pyramid).
+    let tracker = Tracker::new(LkConfig::default()).unwrap();
+    let (mut qa, mut qb) = (Box::new(Storage::new()), Box::new(Storage::new()));
+    c.bench_function("lk/100_corners_21x21_3_levels_with_pyramids", |bench| {
+        bench.iter(|| {
+            let pa = Pyramid::build(black_box(&va), 3, &mut qa).unwrap();
+            let pb = Pyramid::build(black_box(&vb), 3, &mut qb).unwrap();
+            tracker
+                .track(&pa, &pb, black_box(&points), &mut results)
+                .unwrap()
+        })
+    });
+
     let mut storage = Box::new(Storage::new());
     c.bench_function("pyramid/build_320x240_3_levels", |bench| {
         bench.iter(|| {
@@ -93,6 +129,58 @@ fn bench(c: &mut Criterion) {
             detect_corners(black_box(&va), &corner_config, &mut scratch, &mut out).unwrap()
         })
     });
+}
+
+/// The input files of the OpenCV peer.
+mod peer {
+    use std::io::Write;
+    use std::path::Path;
+
+    use super::lk_support::{Gray, Homography};
+    use vslam_core::geometry::Vec2;
+    use vslam_core::lk::{LkConfig, TrackResult};
+
+    fn pgm(path: &Path, img: &Gray) -> std::io::Result<()> {
+        let mut f = std::fs::File::create(path)?;
+        write!(f, "P5\n{} {}\n255\n", img.width, img.height)?;
+        f.write_all(&img.data)
+    }
+
+    pub fn write(
+        dir: &Path,
+        first: &Gray,
+        second: &Gray,
+        points: &[Vec2],
+        h: &Homography,
+        ours: &[TrackResult],
+    ) -> std::io::Result<()> {
+        std::fs::create_dir_all(dir)?;
+        pgm(&dir.join("first.pgm"), first)?;
+        pgm(&dir.join("second.pgm"), second)?;
+        let mut f = std::fs::File::create(dir.join("points.txt"))?;
+        for p in points {
+            let (gx, gy) = h.apply(f64::from(p.x), f64::from(p.y));
+            writeln!(f, "{} {} {gx:.9} {gy:.9}", p.x, p.y)?;
+        }
+        let c = LkConfig::default();
+        let mut f = std::fs::File::create(dir.join("config.txt"))?;
+        writeln!(
+            f,
+            "window {}\nlevels {}\nmax_iterations {}\nepsilon {}",
+            c.window, c.levels, c.max_iterations, c.epsilon
+        )?;
+        let mut f = std::fs::File::create(dir.join("ours.txt"))?;
+        for r in ours {
+            writeln!(
+                f,
+                "{} {} {}",
+                r.position.x,
+                r.position.y,
+                u8::from(r.is_tracked())
+            )?;
+        }
+        Ok(())
+    }
 }
 
 criterion_group!(benches, bench);

@@ -43,6 +43,7 @@ mod affine;
 mod config;
 pub mod sample;
 pub mod track;
+mod window;
 
 pub use config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
 pub use track::Tracker;
