@@ -25,6 +25,11 @@ pub(super) struct Template {
     g_inv: [f32; 3],
     /// The sampled window with a one-pixel frame for the gradients.
     patch: [Row; MAX_WINDOW + 2],
+    /// A copied source row (near edges) and two horizontally interpolated
+    /// rows: scratch of [`Template::mismatch`], kept here so that no call
+    /// zeroes buffers.
+    src: [u8; SRC],
+    rows: [Row; 2],
 }
 
 /// Why a template could not be built.
@@ -53,6 +58,8 @@ impl Template {
             mask: [0.0; ROW],
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; MAX_WINDOW + 2],
+            src: [0; SRC],
+            rows: [[0.0; ROW]; 2],
         }
     }
 
@@ -112,9 +119,10 @@ impl Template {
         let (mut b0, mut b1) = ([0u8; SRC], [0u8; SRC]);
         let (mut top, mut bottom) = ([0.0f32; ROW], [0.0f32; ROW]);
         let (mut h0, mut h1) = (&mut top, &mut bottom);
-        window::horizontal::<P>(src.row(image, 0, &mut b0), src.ax, h0);
+        let need = P * LANES + 1;
+        window::horizontal::<P>(src.row(image, 0, need, &mut b0), src.ax, h0);
         for (i, out) in self.patch.iter_mut().take(m).enumerate() {
-            window::horizontal::<P>(src.row(image, i + 1, &mut b1), src.ax, h1);
+            window::horizontal::<P>(src.row(image, i + 1, need, &mut b1), src.ax, h1);
             window::vertical::<P>(h0, h1, src.ay, out);
             core::mem::swap(&mut h0, &mut h1);
         }
@@ -154,7 +162,7 @@ impl Template {
     /// window is outside (with `clamp`, only when its centre is).
     #[inline]
     fn mismatch(
-        &self,
+        &mut self,
         image: &ImageView<'_>,
         c: Vec2,
         clamp: bool,
@@ -181,20 +189,28 @@ impl Template {
     /// which the compiler turns into SIMD; each lane sums its own columns.
     #[inline(always)]
     fn mismatch_in<const C: usize, const ABS: bool>(
-        &self,
+        &mut self,
         image: &ImageView<'_>,
         src: &SourceRows,
     ) -> Mismatch {
         let mut sums = [[0.0f32; LANES]; 3];
-        let (mut b0, mut b1) = ([0u8; SRC], [0u8; SRC]);
-        let (mut top, mut bottom) = ([0.0f32; ROW], [0.0f32; ROW]);
-        let (mut h0, mut h1) = (&mut top, &mut bottom);
-        let ay = src.ay;
-        window::horizontal::<C>(src.row(image, 0, &mut b0), src.ax, h0);
-        let rows = self.t.iter().zip(&self.gx).zip(&self.gy).take(self.n);
+        let Template {
+            n,
+            t,
+            gx,
+            gy,
+            mask,
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let (mut h0, mut h1) = (top, bottom);
+        let need = C * LANES + 1;
+        window::horizontal::<C>(src.row(image, 0, need, buf), src.ax, h0);
+        let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
         for (i, ((t, gx), gy)) in rows.enumerate() {
-            window::horizontal::<C>(src.row(image, i + 1, &mut b1), src.ax, h1);
-            mismatch_row::<C, ABS>([t, gx, gy, &self.mask], [h0, h1], ay, &mut sums);
+            window::horizontal::<C>(src.row(image, i + 1, need, buf), src.ax, h1);
+            mismatch_row::<C, ABS>([t, gx, gy, mask], [h0, h1], src.ay, &mut sums);
             core::mem::swap(&mut h0, &mut h1);
         }
         let [sx, sy, sa] = sums;
@@ -222,34 +238,33 @@ fn gradient_row<const C: usize>(
     [t, gx, gy]: [&mut Row; 3],
     sums: &mut [[f32; LANES]; 3],
 ) {
-    let (Some((a0, a1, a2)), Some((b0, b1, b2)), Some((c0, c1, c2))) =
-        (taps(p0), taps(p1), taps(p2))
+    let width = C * LANES;
+    // Separable Scharr: smooth [3 10 3] down the columns and difference
+    // across (gx), difference down the columns and smooth across (gy).
+    let (mut smooth, mut diff) = ([0.0f32; ROW], [0.0f32; ROW]);
+    for (((s, d), &a), (&b, &c)) in smooth
+        .iter_mut()
+        .zip(diff.iter_mut())
+        .zip(p0)
+        .zip(p1.iter().zip(p2))
+    {
+        *s = 3.0 * (a + c) + 10.0 * b;
+        *d = c - a;
+    }
+    let (Some((s0, _, s2)), Some((d0, d1, d2)), Some((_, centre, _))) =
+        (taps(&smooth), taps(&diff), taps(p1))
     else {
         return;
     };
-    let width = C * LANES;
-    for (t, &b1) in t.iter_mut().zip(b1).take(width) {
-        *t = b1;
+    if let (Some(t), Some(centre)) = (t.first_chunk_mut::<TPL>(), centre.first_chunk::<TPL>()) {
+        *t = *centre;
     }
-    let x_taps = a0
-        .iter()
-        .zip(a2)
-        .zip(b0.iter().zip(b2))
-        .zip(c0.iter().zip(c2));
-    for ((g, &m), (((&a0, &a2), (&b0, &b2)), (&c0, &c2))) in
-        gx.iter_mut().zip(mask).zip(x_taps).take(width)
-    {
-        *g = (3.0 * (a2 - a0) + 10.0 * (b2 - b0) + 3.0 * (c2 - c0)) * (m / 32.0);
+    for ((g, &m), (&s0, &s2)) in gx.iter_mut().zip(mask).zip(s0.iter().zip(s2)).take(width) {
+        *g = (s2 - s0) * (m / 32.0);
     }
-    let y_taps = a0
-        .iter()
-        .zip(c0)
-        .zip(a1.iter().zip(c1))
-        .zip(a2.iter().zip(c2));
-    for ((g, &m), (((&a0, &c0), (&a1, &c1)), (&a2, &c2))) in
-        gy.iter_mut().zip(mask).zip(y_taps).take(width)
-    {
-        *g = (3.0 * (c0 - a0) + 10.0 * (c1 - a1) + 3.0 * (c2 - a2)) * (m / 32.0);
+    let y_taps = d0.iter().zip(d1).zip(d2);
+    for ((g, &m), ((&d0, &d1), &d2)) in gy.iter_mut().zip(mask).zip(y_taps).take(width) {
+        *g = (3.0 * (d0 + d2) + 10.0 * d1) * (m / 32.0);
     }
     // G = sum [gx² gx·gy; gx·gy gy²], in lanes.
     let [sxx, sxy, syy] = sums;

@@ -87,17 +87,18 @@ impl SourceRows {
         })
     }
 
-    /// Source row `i` of the window (image row `y0 + i`), `SRC` bytes from
-    /// column `x0`; bytes past the image's right edge (or, when clamping,
-    /// outside it anywhere) repeat the nearest edge pixel. Borrows the image
-    /// row when it can, else fills `buf`.
+    /// Source row `i` of the window (image row `y0 + i`) from column `x0`:
+    /// at least `need` (at most [`SRC`]) bytes, where bytes past the image's
+    /// right edge (or, when clamping, outside it anywhere) repeat the nearest
+    /// edge pixel. Borrows the image row when it can, else fills `buf`.
     #[inline(always)]
     pub fn row<'a>(
         &self,
         image: &ImageView<'a>,
         i: usize,
+        need: usize,
         buf: &'a mut [u8; SRC],
-    ) -> &'a [u8; SRC] {
+    ) -> &'a [u8] {
         let (w, h) = (image.width(), image.height());
         let y = self
             .y0
@@ -108,7 +109,7 @@ impl SourceRows {
         };
         if self.inside {
             let x0 = self.x0 as usize;
-            if let Some(src) = row.get(x0..).and_then(|r| r.first_chunk::<SRC>()) {
+            if let Some(src) = row.get(x0..x0 + need) {
                 return src;
             }
         }
@@ -128,16 +129,17 @@ impl SourceRows {
     }
 }
 
-/// `out[k] = src[k] + ax (src[k + 1] - src[k])` for the first `C` chunks.
+/// `out[k] = src[k] + ax (src[k + 1] - src[k])` for the first `C` chunks
+/// (`src` holds at least `C LANES + 1` bytes, see [`SourceRows::row`]).
 #[inline(never)]
-pub(super) fn horizontal<const C: usize>(src: &[u8; SRC], ax: f32, out: &mut Row) {
-    let (Some(left), Some(right)) = (src.first_chunk::<ROW>(), src.last_chunk::<ROW>()) else {
+pub(super) fn horizontal<const C: usize>(src: &[u8], ax: f32, out: &mut Row) {
+    let (Some(left), Some(right)) = (src.get(..C * LANES), src.get(1..=C * LANES)) else {
         return;
     };
     let (out8, _) = out.as_chunks_mut::<LANES>();
     let (left8, _) = left.as_chunks::<LANES>();
     let (right8, _) = right.as_chunks::<LANES>();
-    for ((o, l), r) in out8.iter_mut().zip(left8).zip(right8).take(C) {
+    for ((o, l), r) in out8.iter_mut().zip(left8).zip(right8) {
         for ((o, &a), &b) in o.iter_mut().zip(l).zip(r) {
             let (a, b) = (f32::from(a), f32::from(b));
             *o = a + ax * (b - a);
@@ -175,8 +177,8 @@ mod tests {
         let (mut b0, mut b1) = ([0u8; SRC], [0u8; SRC]);
         let (mut h0, mut h1, mut v) = ([0f32; ROW], [0f32; ROW], [0f32; ROW]);
         for i in 0..rows {
-            horizontal::<MAX_CHUNKS>(src.row(image, i, &mut b0), src.ax, &mut h0);
-            horizontal::<MAX_CHUNKS>(src.row(image, i + 1, &mut b1), src.ax, &mut h1);
+            horizontal::<MAX_CHUNKS>(src.row(image, i, SRC, &mut b0), src.ax, &mut h0);
+            horizontal::<MAX_CHUNKS>(src.row(image, i + 1, SRC, &mut b1), src.ax, &mut h1);
             vertical::<MAX_CHUNKS>(&h0, &h1, src.ay, &mut v);
             out[i * cols..(i + 1) * cols].copy_from_slice(&v[..cols]);
         }
@@ -219,6 +221,9 @@ mod tests {
         // Huge coordinates saturate and stay panic-free when clamping.
         let far = SourceRows::new(&img, 1e30, -1e30, 13, 9, true).unwrap();
         let mut b = [0u8; SRC];
-        assert_eq!(far.row(&img, 0, &mut b)[0], buf[w - 1]);
+        assert_eq!(far.row(&img, 0, SRC, &mut b)[0], buf[w - 1]);
+        // Inside, a row is borrowed with the bytes asked for.
+        let inside = SourceRows::new(&img, 2.5, 3.5, 13, 9, false).unwrap();
+        assert_eq!(inside.row(&img, 1, 14, &mut b), &buf[4 * w + 2..4 * w + 16]);
     }
 }
