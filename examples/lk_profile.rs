@@ -1,8 +1,10 @@
 //! The `lk` bench's workload in a plain loop, for instruction counts:
 //! `valgrind --tool=callgrind --toggle-collect='*Tracker*track*' target/release/examples/lk_profile`
 //! (tracking) or `--toggle-collect='*Pyramid*build*'` (pyramids). Prints the
-//! median endpoint error against the ground-truth homography.
-//! Usage: `lk_profile [ROUNDS]` (default 20).
+//! median endpoint error against the ground-truth homography and the median
+//! wall time of one tracking call (a rough figure; the criterion bench is the
+//! measurement).
+//! Usage: `lk_profile [ROUNDS [REPEATS]]` (default 20 rounds of 1 tracking call).
 
 #[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
 mod lk_support;
@@ -24,6 +26,10 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(20);
+    let repeat: usize = std::env::args()
+        .nth(2)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(1);
     let first = load("camera.png").crop_centre(W, H);
     let h = Homography::similarity_about(160.0, 120.0, 1.5, 1.01, 2.7, -1.9, 2e-5, -1.5e-5);
     let second = first.warp(&h);
@@ -41,12 +47,18 @@ fn main() {
     let mut results = vec![TrackResult::EMPTY; n];
     let tracker = Tracker::new(LkConfig::default()).unwrap();
     let mut iterations = 0;
+    let mut times = Vec::with_capacity(rounds * repeat);
     for _ in 0..rounds {
         let pa = Pyramid::build(black_box(&va), 3, &mut sa).unwrap();
         let pb = Pyramid::build(black_box(&vb), 3, &mut sb).unwrap();
-        black_box(tracker.track(&pa, &pb, &points, &mut results).unwrap());
+        for _ in 0..repeat {
+            let start = std::time::Instant::now();
+            black_box(tracker.track(&pa, &pb, &points, &mut results).unwrap());
+            times.push(start.elapsed().as_secs_f64() * 1e6);
+        }
         iterations = results.iter().map(|r| r.iterations).sum::<u32>();
     }
+    let median_us = median(&mut times);
     let mut errors: Vec<f64> = points
         .iter()
         .zip(&results)
@@ -58,7 +70,7 @@ fn main() {
         .collect();
     let tracked = errors.len();
     println!(
-        "{rounds} rounds, {tracked}/{n} tracked, median endpoint error {:.4} px, mean {:.4} px, level-0 iterations {iterations}",
+        "{rounds} rounds, tracking median {median_us:.1} us, {tracked}/{n} tracked, median endpoint error {:.4} px, mean {:.4} px, level-0 iterations {iterations}",
         median(&mut errors),
         errors.iter().sum::<f64>() / tracked.max(1) as f64
     );

@@ -206,12 +206,26 @@ impl Template {
         } = self;
         let (mut h0, mut h1) = (top, bottom);
         let need = C * LANES + 1;
+        let weights = [src.ax, src.ay];
         window::horizontal::<C>(src.row(image, 0, need, buf), src.ax, h0);
         let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
-        for (i, ((t, gx), gy)) in rows.enumerate() {
-            window::horizontal::<C>(src.row(image, i + 1, need, buf), src.ax, h1);
-            mismatch_row::<C, ABS>([t, gx, gy, mask], [h0, h1], src.ay, &mut sums);
-            core::mem::swap(&mut h0, &mut h1);
+        if let Some((data, mut start, stride)) = src.inside_rows(image) {
+            // Inside: the source rows are stride apart in the image buffer.
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                start = start.saturating_add(stride);
+                let next = match data.get(start..start.saturating_add(need)) {
+                    Some(next) => next,
+                    None => src.row(image, i + 1, need, buf),
+                };
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        } else {
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                let next = src.row(image, i + 1, need, buf);
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
         }
         let [sx, sy, sa] = sums;
         Mismatch {
@@ -280,17 +294,20 @@ fn gradient_row<const C: usize>(
     }
 }
 
-/// One window row of [`Template::mismatch`]: with `d = T - J` and
-/// `J = h0 + ay (h1 - h0)`, adds `d gx`, `d gy` and (with `ABS`) `|d|` per
+/// One window row of [`Template::mismatch`]: interpolates the next source
+/// row `next` horizontally into `h1`; then with `d = T - J` and
+/// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|` per
 /// lane into `sums`. Kept out of line: inlined into the large caller, the
 /// compiler stops vectorising it.
 #[inline(never)]
 fn mismatch_row<const C: usize, const ABS: bool>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
     [t, gx, gy, mask]: [&Row; 4],
-    [h0, h1]: [&Row; 2],
-    ay: f32,
     sums: &mut [[f32; LANES]; 3],
 ) {
+    window::horizontal_inline::<C>(next, ax, h1);
     let [sx, sy, sa] = sums;
     let (t8, _) = t.as_chunks::<LANES>();
     let (gx8, _) = gx.as_chunks::<LANES>();

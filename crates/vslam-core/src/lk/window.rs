@@ -87,6 +87,19 @@ impl SourceRows {
         })
     }
 
+    /// For a window inside the image: the image buffer, the index of its
+    /// first source byte and the stride (source row `i` starts `i` strides on).
+    #[inline(always)]
+    pub fn inside_rows<'a>(&self, image: &ImageView<'a>) -> Option<(&'a [u8], usize, usize)> {
+        if !self.inside {
+            return None;
+        }
+        let start = (self.y0 as usize)
+            .checked_mul(image.stride())?
+            .checked_add(self.x0 as usize)?;
+        Some((image.data(), start, image.stride()))
+    }
+
     /// Source row `i` of the window (image row `y0 + i`) from column `x0`:
     /// at least `need` (at most [`SRC`]) bytes, where bytes past the image's
     /// right edge (or, when clamping, outside it anywhere) repeat the nearest
@@ -133,6 +146,12 @@ impl SourceRows {
 /// (`src` holds at least `C LANES + 1` bytes, see [`SourceRows::row`]).
 #[inline(never)]
 pub(super) fn horizontal<const C: usize>(src: &[u8], ax: f32, out: &mut Row) {
+    horizontal_inline::<C>(src, ax, out);
+}
+
+/// [`horizontal`], inlined into a caller that is itself out of line.
+#[inline(always)]
+pub(super) fn horizontal_inline<const C: usize>(src: &[u8], ax: f32, out: &mut Row) {
     let (Some(left), Some(right)) = (src.get(..C * LANES), src.get(1..=C * LANES)) else {
         return;
     };
