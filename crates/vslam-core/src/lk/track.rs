@@ -271,7 +271,7 @@ fn gradient_row<const C: usize>(
         return;
     };
     if let (Some(t), Some(centre)) = (t.first_chunk_mut::<TPL>(), centre.first_chunk::<TPL>()) {
-        *t = *centre;
+        t.copy_from_slice(centre);
     }
     for ((g, &m), (&s0, &s2)) in gx.iter_mut().zip(mask).zip(s0.iter().zip(s2)).take(width) {
         *g = (s2 - s0) * (m / 32.0);
