@@ -298,7 +298,7 @@ const SPAN: usize = 2 * BLOCK + 4;
 ///
 /// Separable and in 16-bit integers (the exact sums fit: at most
 /// `256 * 255 + 128`): for each output row the five source rows are summed
-/// vertically per column, a block of [`BLOCK`] output columns at a time,
+/// vertically per column, a block of 64 output columns at a time,
 /// then the column sums are split into even and odd columns and combined
 /// horizontally. Mirrored columns outside the image read the mirrored column
 /// sum (the vertical sum commutes with the horizontal mirror).
@@ -458,6 +458,24 @@ mod tests {
             (17, 12, 20),
             (32, 31, 33),
         ] {
+            let img = ImageView::new(&buf, w, h, stride).unwrap();
+            let (want, ow, oh) = reference(&img);
+            let mut got = [0u8; 64 * 64];
+            assert_eq!(downsample_into(&img, &mut got).unwrap(), (ow, oh));
+            assert_eq!(&got[..ow * oh], &want[..ow * oh], "{w}x{h}");
+        }
+    }
+
+    #[test]
+    fn downsample_matches_reference_across_column_blocks() {
+        // Wider than two blocks of 64 output columns, odd and even widths.
+        let mut buf = [0u8; 301 * 7];
+        let mut seed = 987u32;
+        for b in buf.iter_mut() {
+            seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            *b = (seed >> 16) as u8;
+        }
+        for (w, h, stride) in [(300, 7, 301), (259, 6, 260), (129, 5, 129), (128, 3, 130)] {
             let img = ImageView::new(&buf, w, h, stride).unwrap();
             let (want, ow, oh) = reference(&img);
             let mut got = [0u8; 64 * 64];
