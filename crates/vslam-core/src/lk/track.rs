@@ -116,15 +116,32 @@ impl Template {
     /// Samples the `m x m` patch (`P` chunks wide) into `self.patch`.
     #[inline(always)]
     fn sample_patch<const P: usize>(&mut self, image: &ImageView<'_>, src: &SourceRows, m: usize) {
-        let (mut b0, mut b1) = ([0u8; SRC], [0u8; SRC]);
-        let (mut top, mut bottom) = ([0.0f32; ROW], [0.0f32; ROW]);
-        let (mut h0, mut h1) = (&mut top, &mut bottom);
+        let Template {
+            patch,
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let (mut h0, mut h1) = (top, bottom);
         let need = P * LANES + 1;
-        window::horizontal::<P>(src.row(image, 0, need, &mut b0), src.ax, h0);
-        for (i, out) in self.patch.iter_mut().take(m).enumerate() {
-            window::horizontal::<P>(src.row(image, i + 1, need, &mut b1), src.ax, h1);
-            window::vertical::<P>(h0, h1, src.ay, out);
-            core::mem::swap(&mut h0, &mut h1);
+        let weights = [src.ax, src.ay];
+        window::horizontal::<P>(src.row(image, 0, need, buf), src.ax, h0);
+        let outs = patch.iter_mut().take(m);
+        if let Some((data, mut start, stride)) = src.inside_rows(image) {
+            for (i, out) in outs.enumerate() {
+                start = start.saturating_add(stride);
+                let next = match data.get(start..start.saturating_add(need)) {
+                    Some(next) => next,
+                    None => src.row(image, i + 1, need, buf),
+                };
+                patch_row::<P>(next, weights, [h0, h1], out);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        } else {
+            for (i, out) in outs.enumerate() {
+                patch_row::<P>(src.row(image, i + 1, need, buf), weights, [h0, h1], out);
+                core::mem::swap(&mut h0, &mut h1);
+            }
         }
     }
 
@@ -239,6 +256,20 @@ impl Template {
         let [a, o, c] = self.g_inv;
         Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
     }
+}
+
+/// One patch row: the next source row `next` interpolated horizontally into
+/// `h1`, then blended with the previous one `h0` into `out` (out of line,
+/// like [`mismatch_row`]).
+#[inline(never)]
+fn patch_row<const P: usize>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
+    out: &mut Row,
+) {
+    window::horizontal_inline::<P>(next, ax, h1);
+    window::vertical::<P>(h0, h1, ay, out);
 }
 
 /// One template row from three patch rows: the template (centre row,
