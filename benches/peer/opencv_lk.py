@@ -9,6 +9,7 @@ ground-truth homography, reads our criterion medians from
 target/criterion/*/new/estimates.json and prints one table.
 
 Usage: opencv_lk.py DIR [--criterion target/criterion] [--runs N]
+                     [--timing-only ROUNDS.json | --rounds ROUNDS.json]
 Driven by benches/peer/run_lk_peer.sh.
 """
 import argparse
@@ -69,6 +70,11 @@ def main():
     ap.add_argument("dir")
     ap.add_argument("--criterion", default="target/criterion")
     ap.add_argument("--runs", type=int, default=1000)
+    ap.add_argument("--timing-only", metavar="JSON",
+                    help="only time OpenCV; append its medians and our latest criterion "
+                         "medians to the JSON list")
+    ap.add_argument("--rounds", metavar="JSON",
+                    help="earlier rounds (from --timing-only): report medians over all rounds")
     args = ap.parse_args()
 
     cv2.setNumThreads(1)
@@ -105,26 +111,67 @@ def main():
     cv_full = median_ns(full, runs, 50)
     cv_pyr_d = median_ns(pyramid_with_derivatives, runs, 50)
     cv_pyr = median_ns(pyramid, runs, 50)
+    names = ["lk_100_corners_21x21_3_levels", "lk_100_corners_21x21_3_levels_with_pyramids",
+             "pyramid_build_320x240_3_levels"]
+    if args.timing_only:
+        # Append this round: OpenCV's medians and our latest criterion medians.
+        rounds = []
+        if os.path.exists(args.timing_only):
+            with open(args.timing_only) as f:
+                rounds = json.load(f)
+        rounds.append({"opencv": {"full": cv_full, "pyr_d": cv_pyr_d, "pyr": cv_pyr},
+                       "ours": {n: criterion_median_ns(args.criterion, n) for n in names}})
+        with open(args.timing_only, "w") as f:
+            json.dump(rounds, f)
+        return
+    ours_t = {n: criterion_median_ns(args.criterion, n) for n in names}
+    spread = {}
+    if args.rounds:
+        # The machine is shared: OpenCV and our bench ran alternately in
+        # several rounds; each figure is the median over the rounds.
+        with open(args.rounds) as f:
+            rounds = json.load(f)
+        cv_all = [r["opencv"] for r in rounds] + [{"full": cv_full, "pyr_d": cv_pyr_d,
+                                                   "pyr": cv_pyr}]
+        ours_all = [r["ours"] for r in rounds[1:]] + [ours_t]
+        med = lambda xs: statistics.median(xs)
+        cv_full = med([r["full"] for r in cv_all])
+        cv_pyr_d = med([r["pyr_d"] for r in cv_all])
+        cv_pyr = med([r["pyr"] for r in cv_all])
+        for n in names:
+            vals = [r[n] for r in ours_all if r.get(n) is not None]
+            ours_t[n] = med(vals) if vals else None
+            spread[n] = (min(vals), max(vals)) if vals else None
+        spread["opencv_full"] = (min(r["full"] for r in cv_all), max(r["full"] for r in cv_all))
+        spread["rounds"] = (len(ours_all), len(cv_all))
     cv_track = cv_full - cv_pyr_d - cv_pyr
 
-    crit = args.criterion
     rows = [
-        ("track, pyramids prebuilt (a)", criterion_median_ns(
-            crit, "lk_100_corners_21x21_3_levels"), cv_track),
-        ("both pyramids + track", criterion_median_ns(
-            crit, "lk_100_corners_21x21_3_levels_with_pyramids"), cv_full),
-        ("one pyramid (no derivatives)", criterion_median_ns(
-            crit, "pyramid_build_320x240_3_levels"), cv_pyr),
+        ("track, pyramids prebuilt (a)", ours_t[names[0]], cv_track),
+        ("both pyramids + track", ours_t[names[1]], cv_full),
+        ("one pyramid (no derivatives)", ours_t[names[2]], cv_pyr),
     ]
     print()
     print(f"Pyramidal LK, {len(corners)} corners, {window}x{window} window, {levels} levels, "
           f"{iterations} iterations / eps {eps}, {first.shape[1]}x{first.shape[0]}; "
-          f"OpenCV {cv2.__version__}, 1 thread, median of {runs} runs; ours: criterion median")
+          f"OpenCV {cv2.__version__}, 1 thread, median of {runs} calls each timed alone"
+          "; ours: criterion, median of calls each timed alone"
+          + (f"; median over {spread['rounds'][0]} rounds of ours alternating with "
+             f"{spread['rounds'][1]} of OpenCV" if spread else ""))
     print(f"{'':32} {'ours (us)':>10} {'OpenCV (us)':>12} {'ours/OpenCV':>12}")
     for name, o, c in rows:
         o_txt = f"{o / 1e3:10.1f}" if o is not None else f"{'n/a':>10}"
         r_txt = f"{o / c:12.2f}" if o is not None else f"{'n/a':>12}"
         print(f"{name:32} {o_txt} {c / 1e3:12.1f} {r_txt}")
+
+    if spread:
+        lo, hi = spread["opencv_full"]
+        print(f"spread over rounds: OpenCV full {lo / 1e3:.1f}-{hi / 1e3:.1f} us", end="")
+        for n, label in zip(names, ("ours track", "ours with pyramids", "ours pyramid")):
+            if spread.get(n):
+                lo, hi = spread[n]
+                print(f"; {label} {lo / 1e3:.1f}-{hi / 1e3:.1f} us", end="")
+        print()
 
     d_cv, ok_cv = errors(nxt.reshape(-1, 2), status.reshape(-1), truth)
     d_us, ok_us = errors(ours[:, :2], ours[:, 2], truth)
