@@ -64,19 +64,30 @@ pub struct CornerConfig {
     pub min_response: f32,
 }
 
+/// The border that lets the tracker read its whole level-0 window around a
+/// corner: half the window, one pixel for the template's Scharr gradients and
+/// one for the right/bottom bilinear neighbour.
+pub const fn border_for_window(window: usize) -> usize {
+    window / 2 + 2
+}
+
 impl Default for CornerConfig {
-    /// OpenCV's usual choice: quality 0.01, 10 px apart, 3x3 blocks; 10 px
-    /// border (a 21x21 tracking window fits), response floor 1 (level/px)².
+    /// OpenCV's usual choice: quality 0.01, 10 px apart, 3x3 blocks; a
+    /// border of [`border_for_window`] of the default tracker window (12 px
+    /// for 21x21, so every corner can be tracked), response floor 1 (level/px)².
     fn default() -> Self {
         CornerConfig {
             quality_level: 0.01,
             min_distance: 10.0,
             block_size: 3,
-            border: 10,
+            border: border_for_window(LK_DEFAULT_WINDOW),
             min_response: 1.0,
         }
     }
 }
+
+/// The window of [`crate::lk::LkConfig::default`].
+const LK_DEFAULT_WINDOW: usize = 21;
 
 /// Why corners could not be detected.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -417,6 +428,59 @@ mod tests {
             detect_corners(&img, &bad, &mut scratch, &mut out),
             Err(CornerError::BlockSize)
         );
+    }
+
+    #[test]
+    fn default_border_matches_the_default_tracker_window() {
+        use crate::lk::{LkConfig, LostReason, TrackResult, TrackStatus, Tracker};
+        use crate::pyramid::{Pyramid, PyramidStorage};
+        assert_eq!(LK_DEFAULT_WINDOW, LkConfig::default().window);
+        // A texture with corners everywhere, up to the edges.
+        const W: usize = 64;
+        const H: usize = 48;
+        let mut img = [0u8; W * H];
+        let mut seed = 7u32;
+        for y in 0..H {
+            for x in 0..W {
+                seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let checker = if (x / 5 + y / 4) % 2 == 0 { 60 } else { 190 };
+                img[y * W + x] = (checker + (seed >> 28) as i32) as u8;
+            }
+        }
+        let view = ImageView::packed(&img, W, H).unwrap();
+        let cfg = CornerConfig::default();
+        let mut out = [Corner::default(); 64];
+        let n = detect(&view, &cfg, &mut out);
+        assert!(n > 4, "{n}");
+        let near_edge = out[..n]
+            .iter()
+            .map(|c| c.x.min(c.y).min(W - 1 - c.x).min(H - 1 - c.y))
+            .min()
+            .unwrap();
+        assert_eq!(near_edge, cfg.border, "the border is reached");
+        // Every corner can be tracked at level 0 (no OutOfBounds).
+        let mut st = PyramidStorage::<0>::new();
+        let pyr = Pyramid::build(&view, 1, &mut st).unwrap();
+        let tracker = Tracker::new(LkConfig {
+            levels: 1,
+            ..LkConfig::default()
+        })
+        .unwrap();
+        let mut points = [crate::geometry::Vec2::zeros(); 64];
+        for (p, c) in points.iter_mut().zip(&out[..n]) {
+            *p = c.position();
+        }
+        let mut results = [TrackResult::EMPTY; 64];
+        tracker
+            .track(&pyr, &pyr, &points[..n], &mut results[..n])
+            .unwrap();
+        for (c, r) in out[..n].iter().zip(&results[..n]) {
+            assert_ne!(
+                r.status,
+                TrackStatus::Lost(LostReason::OutOfBounds),
+                "{c:?}"
+            );
+        }
     }
 
     #[test]

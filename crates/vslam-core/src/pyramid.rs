@@ -284,12 +284,24 @@ fn reflect(i: isize, n: usize) -> usize {
 
 /// The `[1 4 6 4 1]` weighted sum of five samples.
 #[inline(always)]
-fn binomial5(a: u32, b: u32, c: u32, d: u32, e: u32) -> u32 {
+fn binomial5(a: u16, b: u16, c: u16, d: u16, e: u16) -> u16 {
     a + 4 * b + 6 * c + 4 * d + e
 }
 
+/// Output columns per block of [`downsample_into`] (a fixed stack buffer).
+const BLOCK: usize = 64;
+/// Source columns a block reads: two on each side of its `2 BLOCK` centres.
+const SPAN: usize = 2 * BLOCK + 4;
+
 /// Halves `src` into the packed `dst` (`ceil(w/2) x ceil(h/2)` bytes):
 /// 5x5 binomial blur, then every second pixel. Returns the new size.
+///
+/// Separable and in 16-bit integers (the exact sums fit: at most
+/// `256 * 255 + 128`): for each output row the five source rows are summed
+/// vertically per column, a block of 64 output columns at a time,
+/// then the column sums are split into even and odd columns and combined
+/// horizontally. Mirrored columns outside the image read the mirrored column
+/// sum (the vertical sum commutes with the horizontal mirror).
 pub fn downsample_into(
     src: &ImageView<'_>,
     dst: &mut [u8],
@@ -301,44 +313,71 @@ pub fn downsample_into(
     let dst = dst
         .get_mut(..needed)
         .ok_or(PyramidError::StorageTooSmall { needed, capacity })?;
-    // Columns 1..=interior_end have all five taps inside the row.
-    let interior_end = w.saturating_sub(3) / 2;
     for (oy, out) in dst.chunks_exact_mut(ow).enumerate() {
         let cy = 2 * oy as isize;
         let rows = [-2isize, -1, 0, 1, 2].map(|k| src.row(reflect(cy + k, h)).unwrap_or(&[]));
-        let [r0, r1, r2, r3, r4] = rows;
-        // Interior: window k of width 5 with step 2 is centred on column 2k + 2.
-        let windows = r0
-            .windows(5)
-            .step_by(2)
-            .zip(r1.windows(5).step_by(2))
-            .zip(r2.windows(5).step_by(2))
-            .zip(r3.windows(5).step_by(2))
-            .zip(r4.windows(5).step_by(2));
-        for (o, ((((a, b), c), d), e)) in out.iter_mut().skip(1).zip(windows) {
-            let h5 = |s: &[u8]| match *s {
-                [p, q, r, t, u] => binomial5(p.into(), q.into(), r.into(), t.into(), u.into()),
-                _ => 0,
-            };
-            let v = binomial5(h5(a), h5(b), h5(c), h5(d), h5(e));
-            *o = ((v + 128) >> 8) as u8;
-        }
-        // Borders: column 0 and the columns past the interior, by mirrored taps.
-        let border_cols = core::iter::once(0).chain((interior_end + 1).max(1)..ow);
-        for ox in border_cols {
-            let cx = 2 * ox as isize;
-            let cols = [-2isize, -1, 0, 1, 2].map(|k| reflect(cx + k, w));
-            let h5 = |s: &[u8]| {
-                let [c0, c1, c2, c3, c4] = cols.map(|c| u32::from(s.get(c).copied().unwrap_or(0)));
-                binomial5(c0, c1, c2, c3, c4)
-            };
-            let v = binomial5(h5(r0), h5(r1), h5(r2), h5(r3), h5(r4));
-            if let Some(o) = out.get_mut(ox) {
-                *o = ((v + 128) >> 8) as u8;
+        for (block, out) in out.chunks_mut(BLOCK).enumerate() {
+            // Source column of sums[0]: two left of the first centre.
+            let first = (2 * block * BLOCK) as isize - 2;
+            let len = 2 * out.len() + 3;
+            let mut sums = [0u16; SPAN];
+            column_sums(&rows, w, first, sums.get_mut(..len).unwrap_or(&mut []));
+            let (mut even, mut odd) = ([0u16; BLOCK + 2], [0u16; BLOCK + 2]);
+            for ((e, o), pair) in even
+                .iter_mut()
+                .zip(odd.iter_mut())
+                .zip(sums.chunks_exact(2))
+            {
+                if let [a, b] = *pair {
+                    (*e, *o) = (a, b);
+                }
+            }
+            // Output k is centred on sums[2k + 2]: taps e[k] o[k] e[k+1] o[k+1] e[k+2].
+            let taps = even
+                .iter()
+                .zip(&odd)
+                .zip(even.iter().skip(1).zip(odd.iter().skip(1)))
+                .zip(even.iter().skip(2));
+            for (o, (((&e0, &o0), (&e1, &o1)), &e2)) in out.iter_mut().zip(taps) {
+                *o = ((binomial5(e0, o0, e1, o1, e2) + 128) >> 8) as u8;
             }
         }
     }
     Ok((ow, oh))
+}
+
+/// Vertical `[1 4 6 4 1]` sums of the five `rows` (each `w` wide) for the
+/// source columns `first..first + out.len()`, mirrored outside `0..w`.
+fn column_sums(rows: &[&[u8]; 5], w: usize, first: isize, out: &mut [u16]) {
+    let [r0, r1, r2, r3, r4] = *rows;
+    let last = first + out.len() as isize; // exclusive
+    let lo = first.clamp(0, w as isize) as usize;
+    let hi = last.clamp(0, w as isize) as usize;
+    let skip = (lo as isize - first) as usize;
+    // The columns inside the image, straight from the rows.
+    if let (Some(a), Some(b), Some(c), Some(d), Some(e), Some(o)) = (
+        r0.get(lo..hi),
+        r1.get(lo..hi),
+        r2.get(lo..hi),
+        r3.get(lo..hi),
+        r4.get(lo..hi),
+        out.get_mut(skip..skip + (hi - lo)),
+    ) {
+        let taps = a.iter().zip(b).zip(c).zip(d).zip(e);
+        for (o, ((((&a, &b), &c), &d), &e)) in o.iter_mut().zip(taps) {
+            *o = binomial5(a.into(), b.into(), c.into(), d.into(), e.into());
+        }
+    }
+    // The few mirrored columns past either edge.
+    let column = |x: usize| {
+        let p = |r: &[u8]| u16::from(r.get(x).copied().unwrap_or(0));
+        binomial5(p(r0), p(r1), p(r2), p(r3), p(r4))
+    };
+    let inside = hi - lo;
+    let outside = out.iter_mut().enumerate();
+    for (j, o) in outside.filter(|&(j, _)| j < skip || j >= skip + inside) {
+        *o = column(reflect(first + j as isize, w));
+    }
 }
 
 #[cfg(test)]
@@ -419,6 +458,24 @@ mod tests {
             (17, 12, 20),
             (32, 31, 33),
         ] {
+            let img = ImageView::new(&buf, w, h, stride).unwrap();
+            let (want, ow, oh) = reference(&img);
+            let mut got = [0u8; 64 * 64];
+            assert_eq!(downsample_into(&img, &mut got).unwrap(), (ow, oh));
+            assert_eq!(&got[..ow * oh], &want[..ow * oh], "{w}x{h}");
+        }
+    }
+
+    #[test]
+    fn downsample_matches_reference_across_column_blocks() {
+        // Wider than two blocks of 64 output columns, odd and even widths.
+        let mut buf = [0u8; 301 * 7];
+        let mut seed = 987u32;
+        for b in buf.iter_mut() {
+            seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            *b = (seed >> 16) as u8;
+        }
+        for (w, h, stride) in [(300, 7, 301), (259, 6, 260), (129, 5, 129), (128, 3, 130)] {
             let img = ImageView::new(&buf, w, h, stride).unwrap();
             let (want, ow, oh) = reference(&img);
             let mut got = [0u8; 64 * 64];

@@ -99,15 +99,10 @@ pub(super) fn refine(
 fn for_each_sd(tpl: &Template, s: f32, mut f: impl FnMut(Vector6<f32>, f32)) {
     let n = tpl.n;
     let half = (n / 2) as f32;
-    let rows = tpl
-        .t
-        .chunks_exact(n)
-        .zip(tpl.gx.chunks_exact(n))
-        .zip(tpl.gy.chunks_exact(n))
-        .take(n);
+    let rows = tpl.t.iter().zip(&tpl.gx).zip(&tpl.gy).take(n);
     for (i, ((t, gx), gy)) in rows.enumerate() {
         let y = (i as f32 - half) * s;
-        for (j, ((&t, &gx), &gy)) in t.iter().zip(gx).zip(gy).enumerate() {
+        for (j, ((&t, &gx), &gy)) in t.iter().zip(gx).zip(gy).take(n).enumerate() {
             let x = (j as f32 - half) * s;
             f(Vector6::new(gx, gy, gx * x, gx * y, gy * x, gy * y), t);
         }

@@ -31,18 +31,29 @@
 //! OpenCV's padded pyramids allow), so points near the edge still profit from
 //! the pyramid. A coarse level whose window is degenerate passes its guess on.
 //!
+//! Speed: every window row shares one subpixel fraction, so a source row is
+//! interpolated horizontally once and blended vertically; rows are processed
+//! in fixed chunks of eight lanes (padded columns carry zero gradients), so
+//! the inner loops compile to SIMD; windows inside the image read the image
+//! rows directly, windows over a coarse level's border read edge-replicated
+//! copies through the same kernel (`window`). The template and its Scharr
+//! gradients are built once per point and level; only the moving window is
+//! resampled per iteration.
+//!
 //! No heap and no panic: one template buffer for windows up to
 //! [`MAX_WINDOW`]² lives on the stack per call (about 20 KiB with the
 //! border-window scratch), results go into caller slices, any input point
 //! (NaN, infinite, far outside) yields a status.
 //!
-//! - [`sample`]: bilinear window sampling,
+//! - [`sample`]: bilinear window sampling (single windows and pixels),
+//! - `window`: the row machinery of the tracker's inner loops,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
 mod config;
 pub mod sample;
 pub mod track;
+mod window;
 
 pub use config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
 pub use track::Tracker;

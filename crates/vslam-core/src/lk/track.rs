@@ -7,25 +7,29 @@ use crate::pyramid::Pyramid;
 
 use super::affine;
 use super::config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
-use super::sample::{Bilinear, sample_clamped};
+use super::sample::Bilinear;
+use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
 use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
 
-/// SIMD-friendly lane count of the window loops.
-const LANES: usize = 8;
-const AREA: usize = MAX_WINDOW * MAX_WINDOW;
-const PATCH: usize = (MAX_WINDOW + 2) * (MAX_WINDOW + 2);
-
 /// The template window of one point at one level: intensities, Scharr
-/// gradients and the inverse of the spatial gradient matrix `G`.
+/// gradients (zero past column `n`, so padded columns add nothing) and the
+/// inverse of the spatial gradient matrix `G`; rows are [`Row`]s.
 pub(super) struct Template {
     pub(super) n: usize,
-    pub(super) t: [f32; AREA],
-    pub(super) gx: [f32; AREA],
-    pub(super) gy: [f32; AREA],
+    pub(super) t: [Row; MAX_WINDOW],
+    pub(super) gx: [Row; MAX_WINDOW],
+    pub(super) gy: [Row; MAX_WINDOW],
+    /// 1 for the `n` window columns, 0 for the padding.
+    mask: Row,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// The sampled window with a one-pixel frame for the gradients.
-    patch: [f32; PATCH],
+    patch: [Row; MAX_WINDOW + 2],
+    /// A copied source row (near edges) and two horizontally interpolated
+    /// rows: scratch of [`Template::mismatch`], kept here so that no call
+    /// zeroes buffers.
+    src: [u8; SRC],
+    rows: [Row; 2],
 }
 
 /// Why a template could not be built.
@@ -38,27 +42,30 @@ enum TemplateFault {
 struct Mismatch {
     /// `sum (T - J) gx`, `sum (T - J) gy`.
     b: Vec2,
-    /// `sum |T - J|`.
+    /// `sum |T - J|` (only when asked for, else 0).
     abs: f32,
 }
 
 impl Template {
-    /// Samples the window of side `n` centred on `c` and its gradients.
-    /// With `clamp`, a window hanging over the border repeats the edge pixels
-    /// (the centre must still be inside); without, it is out of bounds.
     /// Storage for one template, filled per point and level by [`Template::fill`]
     /// (one instance serves a whole batch: no per-point zeroing of 16 KiB).
     fn empty() -> Self {
         Template {
             n: 0,
-            t: [0.0; AREA],
-            gx: [0.0; AREA],
-            gy: [0.0; AREA],
+            t: [[0.0; ROW]; MAX_WINDOW],
+            gx: [[0.0; ROW]; MAX_WINDOW],
+            gy: [[0.0; ROW]; MAX_WINDOW],
+            mask: [0.0; ROW],
             g_inv: [0.0; 3],
-            patch: [0.0; PATCH],
+            patch: [[0.0; ROW]; MAX_WINDOW + 2],
+            src: [0; SRC],
+            rows: [[0.0; ROW]; 2],
         }
     }
 
+    /// Samples the window of side `n` centred on `c` and its gradients.
+    /// With `clamp`, a window hanging over the border repeats the edge pixels
+    /// (the centre must still be inside); without, it is out of bounds.
     fn fill(
         &mut self,
         image: &ImageView<'_>,
@@ -70,77 +77,30 @@ impl Template {
         let half = (n / 2) as f32;
         let m = n + 2;
         let (x, y) = (c.x - half - 1.0, c.y - half - 1.0);
-        let patch = &mut self.patch;
-        let sampled = match Bilinear::new(image, x, y, m, m) {
-            Some(window) => window.sample(image, patch),
-            None => clamp && inside(image, c) && sample_clamped(image, x, y, m, m, patch),
+        let clamp = clamp && inside(image, c);
+        let Some(src) = SourceRows::new(image, x, y, m, m, clamp) else {
+            return Err(TemplateFault::OutOfBounds);
         };
-        if !sampled {
+        if n > MAX_WINDOW {
             return Err(TemplateFault::OutOfBounds);
         }
+        match window::chunks(m) {
+            1 => self.sample_patch::<1>(image, &src, m),
+            2 => self.sample_patch::<2>(image, &src, m),
+            3 => self.sample_patch::<3>(image, &src, m),
+            4 => self.sample_patch::<4>(image, &src, m),
+            _ => self.sample_patch::<MAX_CHUNKS>(image, &src, m),
+        }
         self.n = n;
-        let tpl = self;
-        let patch_rows = tpl.patch.chunks_exact(m).take(m);
-        let triples = patch_rows
-            .clone()
-            .zip(patch_rows.clone().skip(1))
-            .zip(patch_rows.skip(2));
-        let outs = tpl
-            .t
-            .chunks_exact_mut(n)
-            .zip(tpl.gx.chunks_exact_mut(n))
-            .zip(tpl.gy.chunks_exact_mut(n));
-        // Scharr, row by row over shifted slices (left, centre, right taps).
-        for (((p0, p1), p2), ((t, gx), gy)) in triples.zip(outs) {
-            let ((Some(a0), Some(a1), Some(a2)), (Some(b0), Some(b1), Some(b2))) =
-                (taps(p0, n), taps(p1, n))
-            else {
-                return Err(TemplateFault::OutOfBounds);
-            };
-            let (Some(c0), Some(c1), Some(c2)) = taps(p2, n) else {
-                return Err(TemplateFault::OutOfBounds);
-            };
-            t.copy_from_slice(b1);
-            let x_taps = a0
-                .iter()
-                .zip(a2)
-                .zip(b0.iter().zip(b2))
-                .zip(c0.iter().zip(c2));
-            for (g, (((&a0, &a2), (&b0, &b2)), (&c0, &c2))) in gx.iter_mut().zip(x_taps) {
-                *g = (3.0 * (a2 - a0) + 10.0 * (b2 - b0) + 3.0 * (c2 - c0)) * (1.0 / 32.0);
-            }
-            let y_taps = a0
-                .iter()
-                .zip(c0)
-                .zip(a1.iter().zip(c1))
-                .zip(a2.iter().zip(c2));
-            for (g, (((&a0, &c0), (&a1, &c1)), (&a2, &c2))) in gy.iter_mut().zip(y_taps) {
-                *g = (3.0 * (c0 - a0) + 10.0 * (c1 - a1) + 3.0 * (c2 - a2)) * (1.0 / 32.0);
-            }
+        for (k, v) in self.mask.iter_mut().enumerate() {
+            *v = if k < n { 1.0 } else { 0.0 };
         }
-        // G = sum [gx² gx·gy; gx·gy gy²], in lanes.
-        let area_px = n * n;
-        let (gx8, gx_rest) = tpl.gx.get(..area_px).unwrap_or(&[]).as_chunks::<LANES>();
-        let (gy8, gy_rest) = tpl.gy.get(..area_px).unwrap_or(&[]).as_chunks::<LANES>();
-        let (mut sxx, mut sxy, mut syy) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-        for (gx, gy) in gx8.iter().zip(gy8) {
-            let lanes = sxx.iter_mut().zip(sxy.iter_mut()).zip(syy.iter_mut());
-            for (((xx, xy), yy), (&gx, &gy)) in lanes.zip(gx.iter().zip(gy)) {
-                *xx += gx * gx;
-                *xy += gx * gy;
-                *yy += gy * gy;
-            }
-        }
-        let (mut gxx, mut gxy, mut gyy) = (
-            sxx.iter().sum::<f32>(),
-            sxy.iter().sum::<f32>(),
-            syy.iter().sum::<f32>(),
-        );
-        for (&gx, &gy) in gx_rest.iter().zip(gy_rest) {
-            gxx += gx * gx;
-            gxy += gx * gy;
-            gyy += gy * gy;
-        }
+        let [gxx, gxy, gyy] = match window::chunks(n) {
+            1 => self.gradients::<1>(),
+            2 => self.gradients::<2>(),
+            3 => self.gradients::<3>(),
+            _ => self.gradients::<4>(),
+        };
         let area = (n * n) as f32;
         let half_diff = 0.5 * (gxx - gyy);
         let lambda_min = 0.5 * (gxx + gyy) - libm::sqrtf(half_diff * half_diff + gxy * gxy);
@@ -149,104 +109,255 @@ impl Template {
         if !well_conditioned {
             return Err(TemplateFault::LowEigenvalue);
         }
-        tpl.g_inv = [gyy / det, -gxy / det, gxx / det];
+        self.g_inv = [gyy / det, -gxy / det, gxx / det];
         Ok(())
     }
 
+    /// Samples the `m x m` patch (`P` chunks wide) into `self.patch`.
+    #[inline(always)]
+    fn sample_patch<const P: usize>(&mut self, image: &ImageView<'_>, src: &SourceRows, m: usize) {
+        let Template {
+            patch,
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let (mut h0, mut h1) = (top, bottom);
+        let need = P * LANES + 1;
+        let weights = [src.ax, src.ay];
+        window::horizontal::<P>(src.row(image, 0, need, buf), src.ax, h0);
+        let outs = patch.iter_mut().take(m);
+        if let Some((data, mut start, stride)) = src.inside_rows(image) {
+            for (i, out) in outs.enumerate() {
+                start = start.saturating_add(stride);
+                let next = match data.get(start..start.saturating_add(need)) {
+                    Some(next) => next,
+                    None => src.row(image, i + 1, need, buf),
+                };
+                patch_row::<P>(next, weights, [h0, h1], out);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        } else {
+            for (i, out) in outs.enumerate() {
+                patch_row::<P>(src.row(image, i + 1, need, buf), weights, [h0, h1], out);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        }
+    }
+
+    /// Template and Scharr gradients (`C` chunks wide) from the patch, and
+    /// the sums `[gxx, gxy, gyy]` of `G`.
+    #[inline(always)]
+    fn gradients<const C: usize>(&mut self) -> [f32; 3] {
+        let mut sums = [[0.0f32; LANES]; 3];
+        let rows = self
+            .patch
+            .iter()
+            .zip(self.patch.iter().skip(1))
+            .zip(self.patch.iter().skip(2))
+            .zip(
+                self.t
+                    .iter_mut()
+                    .zip(self.gx.iter_mut())
+                    .zip(self.gy.iter_mut()),
+            )
+            .take(self.n);
+        let mask = &self.mask;
+        for (((p0, p1), p2), ((t, gx), gy)) in rows {
+            gradient_row::<C>([p0, p1, p2], mask, [t, gx, gy], &mut sums);
+        }
+        let [sxx, sxy, syy] = sums;
+        [
+            sxx.iter().sum::<f32>(),
+            sxy.iter().sum::<f32>(),
+            syy.iter().sum::<f32>(),
+        ]
+    }
+
     /// One pass over the window centred on `c` in `image`: the right-hand
-    /// side `b` and the absolute error, or `None` when the window is outside.
+    /// side `b` and, with `with_abs`, the absolute error; `None` when the
+    /// window is outside (with `clamp`, only when its centre is).
     #[inline]
-    fn mismatch(&self, image: &ImageView<'_>, c: Vec2, clamp: bool) -> Option<Mismatch> {
+    fn mismatch(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+    ) -> Option<Mismatch> {
         let n = self.n;
         let half = (n / 2) as f32;
-        let Some(window) = Bilinear::new(image, c.x - half, c.y - half, n, n) else {
-            return if clamp && inside(image, c) {
-                self.mismatch_clamped(image, c)
-            } else {
-                None
-            };
-        };
-        // Eight lanes in local arrays: the loop body is straight-line code
-        // over fixed-size arrays, which the compiler turns into SIMD; each
-        // lane sums its own columns, so no float sum is reassociated.
-        let rows = self
-            .t
-            .chunks_exact(n)
-            .zip(self.gx.chunks_exact(n))
-            .zip(self.gy.chunks_exact(n))
-            .take(n);
-        let ay = window.ay();
-        let (mut sx, mut sy, mut sa) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-        let (mut tail_x, mut tail_y, mut tail_a) = (0.0f32, 0.0f32, 0.0f32);
-        let (mut top, mut bottom) = ([0.0f32; MAX_WINDOW], [0.0f32; MAX_WINDOW]);
-        let (mut h0, mut h1) = (top.get_mut(..n)?, bottom.get_mut(..n)?);
-        window.horizontal(image, 0, h0)?;
-        for (i, ((t, gx), gy)) in rows.enumerate() {
-            window.horizontal(image, i + 1, h1)?;
-            let (t8, t_rest) = t.as_chunks::<LANES>();
-            let (gx8, gx_rest) = gx.as_chunks::<LANES>();
-            let (gy8, gy_rest) = gy.as_chunks::<LANES>();
-            let (a8, a_rest) = h0.as_chunks::<LANES>();
-            let (b8, b_rest) = h1.as_chunks::<LANES>();
-            let chunks = t8.iter().zip(gx8).zip(gy8).zip(a8.iter().zip(b8));
-            for (((t, gx), gy), (a, b)) in chunks {
-                let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
-                let pixels = t.iter().zip(gx).zip(gy).zip(a.iter().zip(b));
-                for (((x, y), s), (((&t, &gx), &gy), (&a, &b))) in lanes.zip(pixels) {
-                    let d = t - (a + ay * (b - a));
-                    *x += d * gx;
-                    *y += d * gy;
-                    *s += d.abs();
-                }
-            }
-            let rest = t_rest
-                .iter()
-                .zip(gx_rest)
-                .zip(gy_rest)
-                .zip(a_rest.iter().zip(b_rest));
-            for (((&t, &gx), &gy), (&a, &b)) in rest {
-                let d = t - (a + ay * (b - a));
-                tail_x += d * gx;
-                tail_y += d * gy;
-                tail_a += d.abs();
-            }
-            core::mem::swap(&mut h0, &mut h1);
-        }
-        Some(Mismatch {
-            b: Vec2::new(
-                sx.iter().sum::<f32>() + tail_x,
-                sy.iter().sum::<f32>() + tail_y,
-            ),
-            abs: sa.iter().sum::<f32>() + tail_a,
+        let clamp = clamp && inside(image, c);
+        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        Some(match (window::chunks(n), with_abs) {
+            (1, false) => self.mismatch_in::<1, false>(image, &src),
+            (2, false) => self.mismatch_in::<2, false>(image, &src),
+            (3, false) => self.mismatch_in::<3, false>(image, &src),
+            (_, false) => self.mismatch_in::<4, false>(image, &src),
+            (1, true) => self.mismatch_in::<1, true>(image, &src),
+            (2, true) => self.mismatch_in::<2, true>(image, &src),
+            (3, true) => self.mismatch_in::<3, true>(image, &src),
+            (_, true) => self.mismatch_in::<4, true>(image, &src),
         })
     }
 
-    /// [`Template::mismatch`] for a window over the border (slow path).
-    fn mismatch_clamped(&self, image: &ImageView<'_>, c: Vec2) -> Option<Mismatch> {
-        let n = self.n;
-        let half = (n / 2) as f32;
-        let mut j = [0.0f32; AREA];
-        if !sample_clamped(image, c.x - half, c.y - half, n, n, &mut j) {
-            return None;
+    /// [`Template::mismatch`] for rows of `C` chunks. Eight lanes in local
+    /// arrays: the loop body is straight-line code over fixed-size arrays,
+    /// which the compiler turns into SIMD; each lane sums its own columns.
+    #[inline(always)]
+    fn mismatch_in<const C: usize, const ABS: bool>(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> Mismatch {
+        let mut sums = [[0.0f32; LANES]; 3];
+        let Template {
+            n,
+            t,
+            gx,
+            gy,
+            mask,
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let (mut h0, mut h1) = (top, bottom);
+        let need = C * LANES + 1;
+        let weights = [src.ax, src.ay];
+        window::horizontal::<C>(src.row(image, 0, need, buf), src.ax, h0);
+        let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
+        if let Some((data, mut start, stride)) = src.inside_rows(image) {
+            // Inside: the source rows are stride apart in the image buffer.
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                start = start.saturating_add(stride);
+                let next = match data.get(start..start.saturating_add(need)) {
+                    Some(next) => next,
+                    None => src.row(image, i + 1, need, buf),
+                };
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        } else {
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                let next = src.row(image, i + 1, need, buf);
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
         }
-        let mut m = Mismatch {
-            b: Vec2::zeros(),
-            abs: 0.0,
-        };
-        let area = n * n;
-        let pixels = self.t.iter().zip(&self.gx).zip(&self.gy).zip(&j).take(area);
-        for (((t, gx), gy), j) in pixels {
-            let d = t - j;
-            m.b += Vec2::new(d * gx, d * gy);
-            m.abs += libm::fabsf(d);
+        let [sx, sy, sa] = sums;
+        Mismatch {
+            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
+            abs: sa.iter().sum::<f32>(),
         }
-        Some(m)
     }
 
     /// `G⁻¹ b`.
     fn solve(&self, b: &Vec2) -> Vec2 {
         let [a, o, c] = self.g_inv;
         Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
+    }
+}
+
+/// One patch row: the next source row `next` interpolated horizontally into
+/// `h1`, then blended with the previous one `h0` into `out` (out of line,
+/// like [`mismatch_row`]).
+#[inline(never)]
+fn patch_row<const P: usize>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
+    out: &mut Row,
+) {
+    window::horizontal_inline::<P>(next, ax, h1);
+    window::vertical::<P>(h0, h1, ay, out);
+}
+
+/// One template row from three patch rows: the template (centre row,
+/// shifted by one), the Scharr gradients masked to the window, and the
+/// products `gx², gx gy, gy²` per lane into `sums` (out of line, like
+/// [`mismatch_row`]).
+#[inline(never)]
+fn gradient_row<const C: usize>(
+    [p0, p1, p2]: [&Row; 3],
+    mask: &Row,
+    [t, gx, gy]: [&mut Row; 3],
+    sums: &mut [[f32; LANES]; 3],
+) {
+    let width = C * LANES;
+    // Separable Scharr: smooth [3 10 3] down the columns and difference
+    // across (gx), difference down the columns and smooth across (gy).
+    let (mut smooth, mut diff) = ([0.0f32; ROW], [0.0f32; ROW]);
+    for (((s, d), &a), (&b, &c)) in smooth
+        .iter_mut()
+        .zip(diff.iter_mut())
+        .zip(p0)
+        .zip(p1.iter().zip(p2))
+    {
+        *s = 3.0 * (a + c) + 10.0 * b;
+        *d = c - a;
+    }
+    let (Some((s0, _, s2)), Some((d0, d1, d2)), Some((_, centre, _))) =
+        (taps(&smooth), taps(&diff), taps(p1))
+    else {
+        return;
+    };
+    if let (Some(t), Some(centre)) = (t.first_chunk_mut::<TPL>(), centre.first_chunk::<TPL>()) {
+        t.copy_from_slice(centre);
+    }
+    for ((g, &m), (&s0, &s2)) in gx.iter_mut().zip(mask).zip(s0.iter().zip(s2)).take(width) {
+        *g = (s2 - s0) * (m / 32.0);
+    }
+    let y_taps = d0.iter().zip(d1).zip(d2);
+    for ((g, &m), ((&d0, &d1), &d2)) in gy.iter_mut().zip(mask).zip(y_taps).take(width) {
+        *g = (3.0 * (d0 + d2) + 10.0 * d1) * (m / 32.0);
+    }
+    // G = sum [gx² gx·gy; gx·gy gy²], in lanes.
+    let [sxx, sxy, syy] = sums;
+    let (gx8, _) = gx.as_chunks::<LANES>();
+    let (gy8, _) = gy.as_chunks::<LANES>();
+    for (gx, gy) in gx8.iter().zip(gy8).take(C) {
+        let lanes = sxx.iter_mut().zip(sxy.iter_mut()).zip(syy.iter_mut());
+        for (((xx, xy), yy), (&gx, &gy)) in lanes.zip(gx.iter().zip(gy)) {
+            *xx += gx * gx;
+            *xy += gx * gy;
+            *yy += gy * gy;
+        }
+    }
+}
+
+/// One window row of [`Template::mismatch`]: interpolates the next source
+/// row `next` horizontally into `h1`; then with `d = T - J` and
+/// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|` per
+/// lane into `sums`. Kept out of line: inlined into the large caller, the
+/// compiler stops vectorising it.
+#[inline(never)]
+fn mismatch_row<const C: usize, const ABS: bool>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
+    [t, gx, gy, mask]: [&Row; 4],
+    sums: &mut [[f32; LANES]; 3],
+) {
+    window::horizontal_inline::<C>(next, ax, h1);
+    let [sx, sy, sa] = sums;
+    let (t8, _) = t.as_chunks::<LANES>();
+    let (gx8, _) = gx.as_chunks::<LANES>();
+    let (gy8, _) = gy.as_chunks::<LANES>();
+    let (a8, _) = h0.as_chunks::<LANES>();
+    let (b8, _) = h1.as_chunks::<LANES>();
+    let (m8, _) = mask.as_chunks::<LANES>();
+    let chunks = t8.iter().zip(gx8).zip(gy8).zip(a8.iter().zip(b8)).zip(m8);
+    for ((((t, gx), gy), (a, b)), m) in chunks.take(C) {
+        let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
+        let pixels = t.iter().zip(gx).zip(gy).zip(a.iter().zip(b)).zip(m);
+        for (((x, y), s), ((((&t, &gx), &gy), (&a, &b)), &m)) in lanes.zip(pixels) {
+            let d = t - (a + ay * (b - a));
+            *x += d * gx;
+            *y += d * gy;
+            if ABS {
+                *s += d.abs() * m;
+            }
+        }
     }
 }
 
@@ -438,7 +549,7 @@ impl Tracker {
             iterations = 0;
             last_abs = None;
             for k in 0..cfg.max_iterations {
-                let Some(m) = tpl.mismatch(&img_to, v, clamp) else {
+                let Some(m) = tpl.mismatch(&img_to, v, clamp, level == 0) else {
                     if level == 0 {
                         return Pass::lost(v, LostReason::OutOfBounds);
                     }
@@ -495,7 +606,7 @@ impl Tracker {
             }
             let abs = match last_abs {
                 Some(abs) => abs,
-                None => match tpl.mismatch(&base, position, false) {
+                None => match tpl.mismatch(&base, position, false, true) {
                     Some(m) => m.abs,
                     None => return Pass::lost(position, LostReason::OutOfBounds),
                 },
@@ -518,10 +629,17 @@ impl Tracker {
     }
 }
 
-/// The left, centre and right `n`-wide slices of a patch row (`n + 2` wide).
-type Taps<'a> = (Option<&'a [f32]>, Option<&'a [f32]>, Option<&'a [f32]>);
-fn taps(p: &[f32], n: usize) -> Taps<'_> {
-    (p.get(..n), p.get(1..=n), p.get(2..n + 2))
+/// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
+const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
+
+/// The left, centre and right [`TPL`]-wide views of a patch row.
+type Taps<'a> = (&'a [f32; TPL], &'a [f32; TPL], &'a [f32; TPL]);
+fn taps(p: &Row) -> Option<Taps<'_>> {
+    Some((
+        p.first_chunk::<TPL>()?,
+        p.get(1..)?.first_chunk::<TPL>()?,
+        p.get(2..)?.first_chunk::<TPL>()?,
+    ))
 }
 
 /// `c` lies inside the image (pixel centres `0..=width-1`).
