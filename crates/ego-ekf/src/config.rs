@@ -222,12 +222,18 @@ pub struct RecoveryConfig {
     /// forward wheel update started after silence (wheel or IMU gap): its
     /// onset says nothing about slip.
     pub silence_ns: u64,
+    /// Largest standard deviation, m/s, of the flow's averaged velocity for
+    /// it to be a witness at all: reports of a sensor that sees no floor
+    /// (lifted robot, textureless floor) average to a vague zero that every
+    /// speed "agrees" with.
+    pub flow_witness_max_std: f32,
 }
 
 impl Default for RecoveryConfig {
     /// Re-examine after 25 gated updates (0.5 s at 50 Hz), flow younger than
     /// 0.2 s averaged over 0.25 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
-    /// a steady stretch within 5 cm/s, silence after 0.5 s.
+    /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
+    /// only when its mean is known to 0.2 m/s.
     fn default() -> Self {
         RecoveryConfig {
             reset_after_gated: 25,
@@ -236,6 +242,7 @@ impl Default for RecoveryConfig {
             wheel_min_grip: 0.85,
             steady_tolerance: 0.05,
             silence_ns: 500_000_000,
+            flow_witness_max_std: 0.2,
         }
     }
 }

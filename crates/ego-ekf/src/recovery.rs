@@ -295,7 +295,9 @@ pub struct Evidence<'a> {
 /// The verdict for `evidence`; see the module documentation.
 pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
     let e = evidence;
-    if let Some(f) = e.flow {
+    // A vague flow mean (the sensor saw no floor) is no witness.
+    let flow = e.flow.filter(|f| f.std <= config.flow_witness_max_std);
+    if let Some(f) = flow {
         let d = f.velocity - e.filter_velocity;
         let flow_var = f.std * f.std;
         let flow_vs_filter = d.norm_squared() / (flow_var + e.filter_var).max(f32::MIN_POSITIVE);
@@ -431,6 +433,16 @@ mod tests {
         // wheels say the same as the flow.
         let v = decide(&c, &evidence(&run, witness(0.32, 0.15)));
         assert_eq!(v, Verdict::Reset(ResetSource::Flow));
+    }
+
+    #[test]
+    fn a_vague_flow_mean_is_no_witness() {
+        // A lifted robot: the flow sees no floor, its reports average to a
+        // zero of 0.5 m/s std that the free-spinning wheels "agree" with.
+        let c = RecoveryConfig::default();
+        let run = steady_run(&c, false);
+        let v = decide(&c, &evidence(&run, witness(0.0, 0.5)));
+        assert_eq!(v, Verdict::NoTrustedSource);
     }
 
     #[test]
