@@ -190,7 +190,8 @@ struct Worst {
     contact_std: f32,
     trace_observable: f32,
     speed: f32,
-    radius: [f32; 2],
+    radius_min: f32,
+    radius_max: f32,
     gyro_bias: f32,
     accel_bias: f32,
 }
@@ -279,11 +280,12 @@ fn check(est: &Estimator<'_>, t: Timestamp, elapsed_s: f64, w: &mut Worst) {
     w.trace_observable = w.trace_observable.max(trace);
     w.speed = w.speed.max(ekf.velocity().norm());
     let radii = ekf.wheel_radii();
-    w.radius = if w.checks == 1 {
-        radii
-    } else {
-        [w.radius[0].min(radii[0]), w.radius[1].max(radii[1])]
-    };
+    let (lo, hi) = (radii[0].min(radii[1]), radii[0].max(radii[1]));
+    if w.checks == 1 {
+        (w.radius_min, w.radius_max) = (lo, hi);
+    }
+    w.radius_min = w.radius_min.min(lo);
+    w.radius_max = w.radius_max.max(hi);
     w.gyro_bias = w.gyro_bias.max(ekf.gyro_bias().amax());
     w.accel_bias = w.accel_bias.max(ekf.accel_bias().amax());
 
