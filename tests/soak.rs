@@ -421,14 +421,15 @@ fn one_hour_at_250_hz() {
     let rss_end = rss_kib();
     let elapsed = started.elapsed();
 
-    // Every sample fed is counted once; the IMU stream is essentially all fused.
+    // Every sample fed is counted once.
     let c = est.counts();
     assert_eq!(
         [c.imu.seen(), c.wheel.seen(), c.flow.seen()],
         fed.map(|n| n as u32)
     );
+    // Only the initialisation (well under a second) leaves IMU samples unfused.
     assert!(
-        c.imu.fused() as f64 >= 0.999 * total_steps as f64,
+        u64::from(c.imu.fused()) + 250 >= total_steps,
         "imu {}",
         counted(&c.imu)
     );
