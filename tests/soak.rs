@@ -40,7 +40,8 @@
 //! 351,114 fused, 8,809 gated; 971 zero-velocity updates. Worst standard
 //! deviations: velocity 0.018 m/s, tilt 0.0046 rad, accel bias 0.045 m/s^2,
 //! gyro bias 0.0012 rad/s, wheel radius 0.0010 m (the prior), contact 0.003 m;
-//! position 0.35 m (at the start; 0.15 / 0.16 / 0.28 m after the hour), yaw
+//! position 0.35 m (peaks in the slip episodes of the early laps; 0.15 /
+//! 0.16 / 0.28 m after the hour), yaw
 //! 0.054 rad. Wheel radii 0.03455..0.03531 m, final 0.03459 / 0.03360 m
 //! (true 0.0357 / 0.03465: both 3 % low, the simulated floors' mean slip
 //! absorbed into the rolling radius; their ratio is right to 0.01 %). Biases
