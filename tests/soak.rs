@@ -44,9 +44,9 @@
 //! 0.16 / 0.28 m after the hour), yaw
 //! 0.054 rad. Wheel radii 0.03455..0.03531 m, final 0.03459 / 0.03360 m
 //! (true 0.0357 / 0.03465: both 3 % low, the simulated floors' mean slip
-//! absorbed into the rolling radius; their ratio is right to 0.01 %). Biases
+//! absorbed into the rolling radius; their ratio is right to 0.1 %). Biases
 //! at most 0.0053 rad/s and 0.117 m/s^2. The full covariance failed Cholesky
-//! in 237 of 3600 checks (the pose-clone note above); without the clone it
+//! in 237 of 3600 checks (the pose-clone note in `check`); without the clone it
 //! never did.
 
 use ego_ekf::covariance::{is_positive_definite, looks_valid};
