@@ -166,10 +166,13 @@ where
         return unchanged;
     }
     let mut h = hn / hn.m33;
-    let (mut current, n) = cost(&h, pairs());
-    if !current.is_finite() || n < 4 {
+    let (gauged, n) = cost(&h, pairs());
+    if !gauged.is_finite() || n < 4 {
         return unchanged;
     }
+    // Dividing by `H[2][2]` can cost a rounding error: a step must beat the
+    // input's own cost, or the result could be worse than the input.
+    let mut current = gauged.min(c0);
     let mut lambda = 1e-3f32;
     let mut iterations = 0;
     let mut accepted = 0;
