@@ -305,7 +305,7 @@ impl EgoEkf {
             &gyro,
             &accel,
             self.config.gravity,
-            self.wheel.stopped(),
+            self.wheel.stopped() && !self.flow_sees_motion(sample.t()),
         );
         if !still {
             clone_pose(&mut self.x, &mut self.p);
@@ -321,6 +321,22 @@ impl EgoEkf {
             accel,
             vertical_deviation: vertical_deviation(&self.x, &accel),
             still,
+        })
+    }
+
+    /// Whether the flow, recent and precise, sees the robot move: then
+    /// wheels that report no motion (frozen counts) cannot make it still.
+    /// Moving means a mean speed above three of its standard deviations
+    /// and above 3 cm/s.
+    fn flow_sees_motion(&self, t: Timestamp) -> bool {
+        if self.config.flow.is_none() {
+            return false;
+        }
+        let r = &self.config.recovery;
+        self.flow.witness(t).is_some_and(|w| {
+            let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= r.flow_max_age_ns;
+            let speed = w.velocity.norm();
+            recent && w.std <= r.flow_witness_max_std && speed > 0.03_f32.max(3.0 * w.std)
         })
     }
 
