@@ -153,13 +153,13 @@ impl<'a> Pyramid<'a> {
         Self::build_in(image, levels, &mut storage.bytes)
     }
 
-    /// [`Pyramid::build`] into a plain byte buffer (e.g. a static or a
-    /// region of a larger frame buffer).
-    pub fn build_in(
-        image: &ImageView<'a>,
+    /// Checks `levels` against the image and `capacity` bytes of storage;
+    /// returns the bytes the coarser levels need.
+    fn check_layout(
+        image: &ImageView<'_>,
         levels: usize,
-        storage: &'a mut [u8],
-    ) -> Result<Self, PyramidError> {
+        capacity: usize,
+    ) -> Result<usize, PyramidError> {
         if levels == 0 {
             return Err(PyramidError::NoLevels);
         }
@@ -171,12 +171,20 @@ impl<'a> Pyramid<'a> {
             });
         }
         let needed = storage_bytes(image.width(), image.height(), levels);
-        if storage.len() < needed {
-            return Err(PyramidError::StorageTooSmall {
-                needed,
-                capacity: storage.len(),
-            });
+        if capacity < needed {
+            return Err(PyramidError::StorageTooSmall { needed, capacity });
         }
+        Ok(needed)
+    }
+
+    /// [`Pyramid::build`] into a plain byte buffer (e.g. a static or a
+    /// region of a larger frame buffer).
+    pub fn build_in(
+        image: &ImageView<'a>,
+        levels: usize,
+        storage: &'a mut [u8],
+    ) -> Result<Self, PyramidError> {
+        let needed = Self::check_layout(image, levels, storage.len())?;
         let mut all = [*image; MAX_LEVELS];
         let mut rest: &'a mut [u8] = storage;
         let mut prev = *image;
@@ -211,23 +219,7 @@ impl<'a> Pyramid<'a> {
         levels: usize,
         storage: &'a [u8],
     ) -> Result<Self, PyramidError> {
-        if levels == 0 {
-            return Err(PyramidError::NoLevels);
-        }
-        let max = Self::max_levels(image.width(), image.height());
-        if levels > max {
-            return Err(PyramidError::TooManyLevels {
-                requested: levels,
-                max,
-            });
-        }
-        let needed = storage_bytes(image.width(), image.height(), levels);
-        if storage.len() < needed {
-            return Err(PyramidError::StorageTooSmall {
-                needed,
-                capacity: storage.len(),
-            });
-        }
+        let needed = Self::check_layout(image, levels, storage.len())?;
         let mut all = [*image; MAX_LEVELS];
         let mut rest = storage;
         let (mut w, mut h) = (image.width(), image.height());
