@@ -30,6 +30,9 @@ use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 /// Most features tracked between two frames.
 pub const MAX_FEATURES: usize = 200;
 
+/// Points tracked per call of the tracker (the results live on the stack).
+const TRACK_BATCH: usize = 16;
+
 /// Most consecutive unusable frames (too few corners of their own, and no
 /// motion to the reference) bridged by keeping the reference frame: a black,
 /// saturated, uniform or blurred frame then costs one frame pair, not two.
@@ -314,10 +317,8 @@ impl<'b> FrontEnd<'b> {
         if self.points.len() < self.config.min_tracks {
             return Err(Reject::LowQuality);
         }
-        let mut results = [TrackResult::EMPTY; MAX_FEATURES];
-        let results = results
-            .get_mut(..self.points.len())
-            .ok_or(Reject::Degenerate)?;
+        let mut p1: HVec<Vec2, MAX_FEATURES> = HVec::new();
+        let mut p2: HVec<Vec2, MAX_FEATURES> = HVec::new();
         {
             let prev_view = ImageView::packed(self.buffers.previous_frame, w, h)
                 .map_err(|_| Reject::OutOfRange)?;
@@ -332,17 +333,21 @@ impl<'b> FrontEnd<'b> {
             let next = Pyramid::build_in(image, levels, self.buffers.current_pyramid)
                 .map_err(|_| Reject::OutOfRange)?;
             self.current_pyramid_built = true;
-            self.tracker
-                .track(&prev, &next, &self.points, results)
-                .map_err(|_| Reject::Degenerate)?;
-        }
-        let mut p1: HVec<Vec2, MAX_FEATURES> = HVec::new();
-        let mut p2: HVec<Vec2, MAX_FEATURES> = HVec::new();
-        for (p, r) in self.points.iter().zip(results.iter()) {
-            if r.is_tracked() {
-                // Capacities are equal to the number of points: these cannot fail.
-                let _ = p1.push(*p);
-                let _ = p2.push(r.position);
+            // Points are tracked independently: a few at a time keeps the
+            // results off the stack (all 200 at once took about 6 KB).
+            let mut results = [TrackResult::EMPTY; TRACK_BATCH];
+            for batch in self.points.chunks(TRACK_BATCH) {
+                let results = results.get_mut(..batch.len()).ok_or(Reject::Degenerate)?;
+                self.tracker
+                    .track(&prev, &next, batch, results)
+                    .map_err(|_| Reject::Degenerate)?;
+                for (p, r) in batch.iter().zip(results.iter()) {
+                    if r.is_tracked() {
+                        // Capacities equal the number of points: these cannot fail.
+                        let _ = p1.push(*p);
+                        let _ = p2.push(r.position);
+                    }
+                }
             }
         }
         if p1.len() < self.config.min_tracks {
