@@ -34,7 +34,7 @@
 //!
 //! No heap: the caller lends a scratch `f32` buffer of
 //! [`scratch_len`]`(width, height, block_size)` elements, `(3 * block_size +
-//! 9) * width` (2,880 values, 11,520 bytes, for 160-pixel rows and 3x3
+//! 6) * width` (2,400 values, 9,600 bytes, for 160-pixel rows and 3x3
 //! blocks), independent of the height; the output slice is the candidate list.
 
 use core::fmt;
@@ -169,8 +169,8 @@ impl CornerConfig {
 }
 
 /// Scratch `f32` elements [`detect_corners`] needs for `width`-pixel rows:
-/// `block_size` rows of three gradient products, their column sums, the
-/// block sums of one row and three response rows. The height does not matter (it is a parameter so callers
+/// `block_size` rows of three gradient products, their column sums and three
+/// response rows. The height does not matter (it is a parameter so callers
 /// size a frame without knowing the layout).
 pub const fn scratch_len(width: usize, height: usize, block_size: usize) -> usize {
     let _ = height;
@@ -210,11 +210,7 @@ pub fn detect_corners(
     for y in 0..h {
         recent.rotate_left(1);
         let [above, row, below] = &mut recent;
-        // A response below both the threshold and the strongest so far can
-        // be neither a corner, nor a neighbour stronger than one, nor the
-        // strongest: its upper bound will do.
-        let cut = provisional(strongest).min(strongest);
-        strongest = strongest.max(rows.next(y, below, cut));
+        strongest = strongest.max(rows.next(y, below));
         // Row y - 1 now has both neighbours.
         let Some(centre) = y.checked_sub(1) else {
             continue;

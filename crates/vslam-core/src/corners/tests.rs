@@ -238,7 +238,7 @@ fn response_rows_match_the_reference_image() {
             let mut rows = ResponseRows::new(&img, block, &mut scratch);
             let mut row = vec![f32::NAN; w];
             for (y, want) in expected.chunks_exact(w).enumerate() {
-                let strongest = rows.next(y, &mut row, 0.0);
+                let strongest = rows.next(y, &mut row);
                 assert_eq!(row, want, "{w}x{h} block {block} row {y}");
                 assert_eq!(strongest, want.iter().copied().fold(0.0, f32::max));
             }
@@ -267,7 +267,7 @@ fn block_sums_beyond_f32_integers_match_the_reference() {
         let mut rows = ResponseRows::new(&img, block_size, &mut scratch);
         let mut row = [0f32; W];
         for (y, want) in want.chunks_exact(W).enumerate() {
-            rows.next(y, &mut row, 0.0);
+            rows.next(y, &mut row);
             assert_eq!(&row[..], want, "block {block_size} row {y}");
         }
         let cfg = CornerConfig {
@@ -279,28 +279,6 @@ fn block_sums_beyond_f32_integers_match_the_reference() {
         let got = detect_vec(&img, &cfg, 100);
         assert!(!got.is_empty());
         assert_eq!(got, reference(&img, &cfg, 100), "block {block_size}");
-    }
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig { cases: 20_000, rng_seed: proptest::test_runner::RngSeed::Fixed(3), ..ProptestConfig::default() })]
-
-    #[test]
-    fn the_bound_is_never_below_the_response(
-        xx in 0u32..60_000_000,
-        yy_offset in -2_000i64..2_000,
-        yy_far in 0u32..60_000_000,
-        near in any::<bool>(),
-        xy_fraction in -1.0f64..=1.0,
-        block in prop_oneof![Just(3usize), Just(5), Just(7)],
-    ) {
-        // Sums as the detector sees them, nearly equal diagonals included
-        // (where the square root cancels most).
-        let yy = if near { (i64::from(xx) + yy_offset).max(0) as u32 } else { yy_far };
-        let xy = (xy_fraction * (f64::from(xx) * f64::from(yy)).sqrt()) as f32;
-        let norm = 1.0 / (64.0 * (block * block) as f32);
-        let (xx, xy, yy) = (xx as f32 * norm, xy * norm, yy as f32 * norm);
-        prop_assert!(response::min_eigenvalue(xx, xy, yy) <= response::upper_bound(xx, yy));
     }
 }
 
@@ -426,9 +404,9 @@ fn uniform_image_and_bad_config() {
 
 #[test]
 fn scratch_grows_with_the_width_only() {
-    assert_eq!(scratch_len(160, 120, 3), 160 * 18);
+    assert_eq!(scratch_len(160, 120, 3), 160 * 15);
     assert_eq!(scratch_len(160, 10_000, 3), scratch_len(160, 1, 3));
-    assert_eq!(scratch_len(320, 240, 7), 320 * 30);
+    assert_eq!(scratch_len(320, 240, 7), 320 * 27);
     assert_eq!(scratch_len(usize::MAX, 2, 3), usize::MAX);
     // A tall image runs in the scratch of one sized for its width.
     const W: usize = 40;
