@@ -22,8 +22,8 @@
 //! raster order, deterministic. It approximates OpenCV's global greedy pass
 //! (which sorts every candidate) without a candidate buffer.
 //!
-//! The image is streamed row by row ([`response`]): running box sums of the
-//! gradient products give one response row at a time, three response rows
+//! The image is streamed row by row ([`response`]): running column sums of
+//! the gradient products give one response row at a time, three response rows
 //! feed the 3x3 maximum test, and the maxima go straight to the output list
 //! ([`select`]). The quality threshold needs the strongest response of the
 //! whole image, known only at the end: candidates are offered against the
