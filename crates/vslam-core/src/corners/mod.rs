@@ -22,10 +22,10 @@
 //! raster order, deterministic. It approximates OpenCV's global greedy pass
 //! (which sorts every candidate) without a candidate buffer.
 //!
-//! The image is streamed row by row ([`response`]): running column sums of
+//! The image is streamed row by row (module `response`): running column sums of
 //! the gradient products give one response row at a time, three response rows
 //! feed the 3x3 maximum test, and the maxima go straight to the output list
-//! ([`select`]). The quality threshold needs the strongest response of the
+//! (module `select`). The quality threshold needs the strongest response of the
 //! whole image, known only at the end: candidates are offered against the
 //! threshold of the strongest response seen so far (never above the final
 //! one), and the list is cut at the final threshold. A candidate only ever
