@@ -45,7 +45,7 @@ mod select;
 mod tests;
 
 use response::{ResponseRows, window_len};
-use select::offer;
+use select::RasterList;
 
 use crate::geometry::Vec2;
 use crate::image::ImageView;
@@ -206,7 +206,7 @@ pub fn detect_corners(
     // Never above the final threshold: the strongest response can only grow.
     let provisional = |strongest: f32| (config.quality_level * strongest).max(config.min_response);
     let mut strongest = 0.0f32;
-    let mut kept = 0usize;
+    let mut list = RasterList::new(out, min_dist_sq);
     for y in 0..h {
         recent.rotate_left(1);
         let [above, row, below] = &mut recent;
@@ -228,9 +228,10 @@ pub fn detect_corners(
                 y: centre,
                 response,
             };
-            kept = offer(out, kept, c, min_dist_sq);
+            list.offer(c);
         }
     }
+    let kept = list.finish();
     let textured = strongest >= config.min_response && strongest > 0.0;
     if !textured {
         return Ok(0);

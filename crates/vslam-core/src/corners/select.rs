@@ -12,6 +12,7 @@ fn dist_sq(a: &Corner, b: &Corner) -> f32 {
 /// Whether `a` and `b` are closer than `sqrt(min_dist_sq)`; `rows` is a
 /// whole number of rows beyond reach (`> sqrt(min_dist_sq)`), which settles
 /// most pairs of a raster scan without the distance.
+#[cfg(test)]
 fn within_reach(a: &Corner, b: &Corner, rows: usize, min_dist_sq: f32) -> bool {
     a.y.abs_diff(b.y) < rows && dist_sq(a, b) < min_dist_sq
 }
@@ -39,6 +40,7 @@ fn rows_beyond_reach(min_dist_sq: f32) -> usize {
 /// at or above that level are kept, nor their order: the detector can offer
 /// candidates against a provisional threshold and cut the list at the final
 /// one.
+#[cfg(test)]
 pub(super) fn offer(out: &mut [Corner], kept: usize, c: Corner, min_dist_sq: f32) -> usize {
     let cap = out.len();
     let Some(list) = out.get_mut(..kept) else {
@@ -77,6 +79,123 @@ pub(super) fn offer(out: &mut [Corner], kept: usize, c: Corner, min_dist_sq: f32
         }
     }
     new_len
+}
+
+/// The kept corners of a raster scan, in arrival order in `out[..len]`:
+/// the corners within reach of a new one are the last few rows' worth at
+/// the end, so the distance rules only look there. Same rules as [`offer`];
+/// [`RasterList::finish`] sorts strongest first (ties in raster order).
+pub(super) struct RasterList<'o> {
+    out: &'o mut [Corner],
+    len: usize,
+    min_dist_sq: f32,
+    rows: usize,
+    /// Index of the weakest kept corner (the latest of equals), when known.
+    weakest: Option<usize>,
+}
+
+impl<'o> RasterList<'o> {
+    /// An empty list over `out`.
+    pub(super) fn new(out: &'o mut [Corner], min_dist_sq: f32) -> Self {
+        RasterList {
+            out,
+            len: 0,
+            min_dist_sq,
+            rows: rows_beyond_reach(min_dist_sq),
+            weakest: None,
+        }
+    }
+
+    /// Offers `c`, which comes after every corner offered before in raster
+    /// order (row, then column).
+    pub(super) fn offer(&mut self, c: Corner) {
+        let cap = self.out.len();
+        let Some(list) = self.out.get_mut(..self.len) else {
+            return;
+        };
+        if self.len == cap {
+            let weakest = match self.weakest {
+                Some(i) => i,
+                None => {
+                    let i = weakest_index(list);
+                    self.weakest = Some(i);
+                    i
+                }
+            };
+            if list.get(weakest).is_none_or(|w| w.response >= c.response) {
+                return;
+            }
+        }
+        // The corners of the last `rows` rows: the only ones within reach.
+        let band = list
+            .iter()
+            .rposition(|k| c.y.abs_diff(k.y) >= self.rows)
+            .map_or(0, |i| i + 1);
+        let Some(recent) = list.get_mut(band..) else {
+            return;
+        };
+        let near = |k: &Corner| dist_sq(k, &c) < self.min_dist_sq;
+        if recent.iter().any(|k| k.response >= c.response && near(k)) {
+            return;
+        }
+        // Evict the weaker corners within reach, keeping the order.
+        let mut n = 0;
+        for i in 0..recent.len() {
+            let Some(&k) = recent.get(i) else { break };
+            if !(k.response < c.response && near(&k)) {
+                if let Some(slot) = recent.get_mut(n) {
+                    *slot = k;
+                }
+                n += 1;
+            }
+        }
+        let mut len = band + n;
+        if len == cap {
+            // Full: the weakest (the latest of equals) falls off.
+            let Some(list) = self.out.get_mut(..len) else {
+                return;
+            };
+            // Nothing was evicted: the list, and its weakest, are unchanged.
+            let weakest = self.weakest.unwrap_or_else(|| weakest_index(list));
+            if let Some(tail) = list.get_mut(weakest..) {
+                tail.rotate_left(1);
+            }
+            len -= 1;
+        }
+        if let Some(slot) = self.out.get_mut(len) {
+            *slot = c;
+            self.len = len + 1;
+        }
+        self.weakest = None;
+    }
+
+    /// Sorts the kept corners strongest first, equals in raster order, and
+    /// returns how many there are.
+    pub(super) fn finish(self) -> usize {
+        if let Some(list) = self.out.get_mut(..self.len) {
+            list.sort_unstable_by(|a, b| {
+                b.response
+                    .partial_cmp(&a.response)
+                    .unwrap_or(core::cmp::Ordering::Equal)
+                    .then(a.y.cmp(&b.y))
+                    .then(a.x.cmp(&b.x))
+            });
+        }
+        self.len
+    }
+}
+
+/// The index of the smallest response, the last of equals.
+fn weakest_index(list: &[Corner]) -> usize {
+    let mut at = 0;
+    let mut weakest = f32::INFINITY;
+    for (i, k) in list.iter().enumerate() {
+        if k.response <= weakest {
+            weakest = k.response;
+            at = i;
+        }
+    }
+    at
 }
 
 #[cfg(test)]
@@ -130,6 +249,41 @@ mod tests {
         // An equal response does not push a kept corner off a full list.
         n = offer(&mut out, n, c(700, 0, 3.0), 1.0);
         assert_eq!(&out[..n], &[c(500, 0, 4.0), c(100, 0, 3.0)]);
+    }
+
+    #[test]
+    fn the_raster_list_keeps_what_the_sorted_list_keeps() {
+        let mut seed = 5u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            seed >> 8
+        };
+        for round in 0..2000 {
+            let n = (next() % 120) as usize;
+            let mut candidates: Vec<Corner> = (0..n)
+                .map(|_| {
+                    c(
+                        (next() % 30) as usize,
+                        (next() % 60) as usize,
+                        (next() % 8) as f32,
+                    )
+                })
+                .collect();
+            candidates.sort_by_key(|k| (k.y, k.x));
+            candidates.dedup_by_key(|k| (k.y, k.x));
+            let cap = (next() % 25) as usize;
+            let md2 = [0.0, 1.0, 2.0, 8.0, 25.0, 100.0, 1e20][round % 7];
+            let mut sorted = vec![Corner::default(); cap];
+            let mut kept = 0;
+            let mut raster_out = vec![Corner::default(); cap];
+            let mut raster = RasterList::new(&mut raster_out, md2);
+            for &k in &candidates {
+                kept = offer(&mut sorted, kept, k, md2);
+                raster.offer(k);
+            }
+            let len = raster.finish();
+            assert_eq!(&raster_out[..len], &sorted[..kept], "round {round}");
+        }
     }
 
     #[test]
