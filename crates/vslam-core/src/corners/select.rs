@@ -1,5 +1,9 @@
-//! The kept corners: a list sorted strongest first whose members keep a
-//! minimum distance, filled greedily in the order candidates arrive.
+//! The kept corners: corners at least a minimum distance apart, the
+//! strongest first, filled greedily in the order candidates arrive. The
+//! rules are those of `offer` on a list sorted strongest first (the tests'
+//! specification); the detector keeps the list in raster order instead
+//! ([`RasterList`]), where the corners within reach of a new one are the
+//! last few, and sorts it at the end.
 
 use super::Corner;
 
