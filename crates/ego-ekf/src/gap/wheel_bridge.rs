@@ -29,7 +29,8 @@
 //! with `G_p = R_0 R_rb^T diag(1, 1, 0) + R_1 [l]x a e_3^T`, `J` the
 //! dead-reckoning Jacobian w.r.t. `k = (r_l, r_r, L)` (the track `L =
 //! -e_y^T R_rb (p_br - p_bl)` depends on both contact points), and `n` its
-//! noise with covariance `S`. So `P <- F P F^T + G S G^T + Q`, `Q` the
+//! noise with covariance `S` (the mount rotation's small uncertainty is
+//! left out of `F`). So `P <- F P F^T + G S G^T + Q`, `Q` the
 //! velocity's growth and the IMU's own process noise over the gap (biases
 //! and robot states). `F P F^T` touches only the first nine rows and
 //! columns; the result is symmetrised and written only if finite.
@@ -61,19 +62,20 @@ pub fn wheel_geometry(x: &NominalState, grip: &GripParams) -> WheelGeometry {
     }
 }
 
-/// Bridges a gap of `gap_s` seconds over which the wheels dead-reckoned
-/// `motion`; returns `false` (and changes nothing) for a non-finite or
-/// non-positive gap or a non-finite result.
-pub fn bridge_with_wheels(
-    x: &mut NominalState,
-    p: &mut Covariance,
-    config: &FilterConfig,
-    motion: &DeadReckoning,
-    gap_s: f32,
-) -> bool {
-    if !(gap_s.is_finite() && gap_s > 0.0) {
-        return false;
-    }
+/// The bridged pose and the linearisation of the bridge (see the module
+/// docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Moved {
+    p_wb: Vec3,
+    v_wb: Vec3,
+    q_wb: Quat,
+    /// The first nine rows of `F`.
+    f: SMatrix<f32, POSE_VEL, DIM>,
+    /// `G`: the dead reckoning's `(x, y, psi)` into those rows.
+    g: SMatrix<f32, POSE_VEL, 3>,
+}
+
+fn moved(x: &NominalState, motion: &DeadReckoning) -> Moved {
     let r0 = x.q_wb.to_rotation_matrix().into_inner();
     let r_rb = x.q_rb.to_rotation_matrix().into_inner();
     let axis = r_rb.transpose() * Vec3::z();
@@ -125,7 +127,35 @@ pub fn bridge_with_wheels(
             .zip_apply(&half_lever, |a, b| *a += b);
         f.fixed_view_mut::<POSE_VEL, 3>(0, col).copy_from(&block);
     }
+    Moved {
+        p_wb: x.p_wb + r0 * lever + delta - r1 * lever,
+        v_wb: r1 * v_b0,
+        q_wb: Quat::new_normalize((x.q_wb * q_turn).into_inner()),
+        f,
+        g,
+    }
+}
 
+/// Bridges a gap of `gap_s` seconds over which the wheels dead-reckoned
+/// `motion`; returns `false` (and changes nothing) for a non-finite or
+/// non-positive gap or a non-finite result.
+pub fn bridge_with_wheels(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    config: &FilterConfig,
+    motion: &DeadReckoning,
+    gap_s: f32,
+) -> bool {
+    if !(gap_s.is_finite() && gap_s > 0.0) {
+        return false;
+    }
+    let Moved {
+        p_wb,
+        v_wb,
+        q_wb,
+        f,
+        g,
+    } = moved(x, motion);
     let mut next = *p;
     let rows = f * next;
     next.fixed_rows_mut::<POSE_VEL>(0).copy_from(&rows);
@@ -143,19 +173,137 @@ pub fn bridge_with_wheels(
         }
     }
     symmetrize(&mut next);
-
-    let p1 = x.p_wb + r0 * lever + delta - r1 * lever;
-    let v1 = r1 * v_b0;
-    let q1 = Quat::new_normalize((x.q_wb * q_turn).into_inner());
     let finite = next.iter().all(|v| v.is_finite())
-        && p1.iter().chain(v1.iter()).all(|v| v.is_finite())
-        && q1.coords.iter().all(|v| v.is_finite());
+        && p_wb.iter().chain(v_wb.iter()).all(|v| v.is_finite())
+        && q_wb.coords.iter().all(|v| v.is_finite());
     if !finite {
         return false;
     }
     *p = next;
-    x.p_wb = p1;
-    x.v_wb = v1;
-    x.q_wb = q1;
+    x.p_wb = p_wb;
+    x.v_wb = v_wb;
+    x.q_wb = q_wb;
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::RobotPrior;
+    use crate::state::{ErrorState, RAD};
+
+    fn state() -> NominalState {
+        let r = RobotPrior::default();
+        NominalState {
+            p_wb: Vec3::new(1.0, -2.0, 0.06),
+            v_wb: Quat::from_euler_angles(0.0, 0.0, 0.7) * Vec3::new(0.28, 0.01, 0.0),
+            q_wb: Quat::from_euler_angles(0.02, -0.03, 0.7),
+            accel_bias: Vec3::zeros(),
+            gyro_bias: Vec3::zeros(),
+            gravity: Vec3::new(0.0, 0.0, -9.8),
+            clone_p_wb: Vec3::zeros(),
+            clone_q_wb: Quat::identity(),
+            p_bl: r.p_bl + Vec3::new(0.003, 0.002, -0.001),
+            p_br: r.p_br + Vec3::new(-0.002, 0.001, 0.002),
+            q_rb: Quat::from_euler_angles(0.01, 0.02, -0.015),
+            radius_left: 0.035,
+            radius_right: 0.0352,
+        }
+    }
+
+    /// A left turn that speeds up, dead-reckoned with the state's geometry.
+    fn motion(x: &NominalState) -> DeadReckoning {
+        let g = wheel_geometry(x, &GripParams::default());
+        let mut d = DeadReckoning::default();
+        for k in 0..25 {
+            let l = 6.0 + 0.04 * k as f32;
+            let r = 9.0 + 0.08 * k as f32;
+            assert!(d.step(&g, l, r, 0.02));
+        }
+        d
+    }
+
+    fn covariance(seed: u32) -> Covariance {
+        // A random symmetric positive definite matrix with a mix of scales.
+        let mut s = seed;
+        let mut a = Covariance::zeros();
+        for v in a.iter_mut() {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *v = (s >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
+        }
+        let mut p = a * a.transpose() * 1e-4 + Covariance::identity() * 1e-6;
+        symmetrize(&mut p);
+        p
+    }
+
+    fn positive_definite(p: &Covariance) -> bool {
+        let p64 = p.cast::<f64>();
+        let d = p64.diagonal().map(|v| 1.0 / v.sqrt());
+        p64.component_mul(&(d * d.transpose())).cholesky().is_some()
+    }
+
+    #[test]
+    fn the_transition_matches_finite_differences() {
+        let x = state();
+        let m0 = moved(&x, &motion(&x));
+        let columns = (0..9).chain(CL..CL + 6).chain(RAD..RAD + 2);
+        for i in columns {
+            let h = if i >= RAD { 1e-4 } else { 1e-3 };
+            let mut dx = ErrorState::zeros();
+            dx[i] = h;
+            let mut xp = x;
+            xp.inject(&dx);
+            let m = moved(&xp, &motion(&xp));
+            let dth = (m0.q_wb.inverse() * m.q_wb).scaled_axis();
+            let got = [m.p_wb - m0.p_wb, m.v_wb - m0.v_wb, dth];
+            for (block, d) in got.iter().enumerate() {
+                let predicted = m0.f.fixed_view::<3, 1>(3 * block, i) * h;
+                let err = (predicted - d).amax();
+                assert!(
+                    err <= 0.03 * d.amax() + 3e-6,
+                    "column {i}, block {block}: F says {predicted:?}, moved {d:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_covariance_stays_symmetric_positive_definite_and_grows() {
+        let c = FilterConfig::default();
+        for seed in 1..5 {
+            let mut x = state();
+            let mut p = covariance(seed);
+            assert!(positive_definite(&p));
+            let m = motion(&x);
+            let yaw_axis = x.q_rb.inverse() * Vec3::z();
+            let yaw_var =
+                |p: &Covariance| (yaw_axis.transpose() * p.fixed_view::<3, 3>(TH, TH) * yaw_axis).x;
+            let before = yaw_var(&p);
+            assert!(bridge_with_wheels(&mut x, &mut p, &c, &m, 0.5));
+            assert_eq!(p, p.transpose());
+            assert!(positive_definite(&p), "seed {seed}");
+            // At least the wheels' own yaw noise was added.
+            assert!(yaw_var(&p) >= before + 0.9 * m.noise[(2, 2)]);
+            assert!(x.is_finite());
+        }
+    }
+
+    #[test]
+    fn bad_input_changes_nothing() {
+        let c = FilterConfig::default();
+        let x0 = state();
+        let p0 = covariance(9);
+        let m = motion(&x0);
+        let (mut x, mut p) = (x0, p0);
+        for gap in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(!bridge_with_wheels(&mut x, &mut p, &c, &m, gap));
+        }
+        let mut nan = m;
+        nan.x = f32::NAN;
+        assert!(!bridge_with_wheels(&mut x, &mut p, &c, &nan, 0.5));
+        let mut huge = m;
+        huge.noise[(2, 2)] = f32::MAX;
+        assert!(!bridge_with_wheels(&mut x, &mut p, &c, &huge, 0.5));
+        assert_eq!((x, p), (x0, p0));
+    }
 }
