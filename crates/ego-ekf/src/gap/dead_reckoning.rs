@@ -22,9 +22,11 @@
 //!   noise `s_l` a sideways speed; each held over the step `dt`;
 //! - the Jacobian `J` of `(x, y, psi)` with respect to the wheel radii and
 //!   the track, so the filter's own uncertainty about them (estimated states)
-//!   carries into the pose.
+//!   carries into the pose;
+//! - the latest step's speed and yaw rate and their Jacobian, the robot's
+//!   motion at the end (the filter's velocity after the gap).
 
-use nalgebra::{Matrix3, RowVector3};
+use nalgebra::{Matrix2x3, Matrix3, RowVector3, Vector3};
 
 /// What the filter knows of the wheels when a sample is integrated.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +80,15 @@ pub struct DeadReckoning {
     pub jacobian: Matrix3<f32>,
     /// Time integrated, s.
     pub elapsed: f32,
+    /// Forward speed of the latest step, m/s.
+    pub speed: f32,
+    /// Yaw rate of the latest step, rad/s.
+    pub yaw_rate: f32,
+    /// Jacobian of `(speed, yaw_rate)` w.r.t. `(r_l, r_r, L)`.
+    pub rate_jacobian: Matrix2x3<f32>,
+    /// Noise variances of the latest step's forward speed, sideways speed
+    /// ((m/s)^2, also used for the vertical) and yaw rate ((rad/s)^2).
+    pub rate_var: Vector3<f32>,
 }
 
 impl Default for DeadReckoning {
@@ -89,6 +100,10 @@ impl Default for DeadReckoning {
             noise: Matrix3::zeros(),
             jacobian: Matrix3::zeros(),
             elapsed: 0.0,
+            speed: 0.0,
+            yaw_rate: 0.0,
+            rate_jacobian: Matrix2x3::zeros(),
+            rate_var: Vector3::zeros(),
         }
     }
 }
@@ -100,10 +115,13 @@ impl DeadReckoning {
     pub fn step(&mut self, geometry: &WheelGeometry, left: f32, right: f32, dt: f32) -> bool {
         let mut next = *self;
         next.integrate(geometry, left, right, dt);
-        let finite = [next.x, next.y, next.psi, next.elapsed]
+        let finite = [next.x, next.y, next.psi, next.elapsed, next.speed]
             .iter()
+            .chain([next.yaw_rate].iter())
             .chain(next.noise.iter())
             .chain(next.jacobian.iter())
+            .chain(next.rate_jacobian.iter())
+            .chain(next.rate_var.iter())
             .all(|v| v.is_finite());
         if finite {
             *self = next;
@@ -147,6 +165,15 @@ impl DeadReckoning {
         self.y += s * ds;
         self.psi += w * dt;
         self.elapsed += dt;
+        self.speed = v;
+        self.yaw_rate = w;
+        self.rate_jacobian.set_row(0, &dv);
+        self.rate_jacobian.set_row(1, &dw);
+        self.rate_var = Vector3::new(
+            0.5 * g.forward_std * g.forward_std,
+            g.lateral_std * g.lateral_std,
+            g.yaw_rate_var(),
+        );
     }
 }
 
@@ -190,6 +217,7 @@ mod tests {
             "{}",
             d.y
         );
+        assert!((d.speed - v).abs() < 1e-5 && (d.yaw_rate - w).abs() < 1e-5);
         assert!((d.elapsed - t).abs() < 1e-5);
     }
 

@@ -14,8 +14,9 @@
 //! - [`dead_reckoning`]: the maths of that integration (differential drive,
 //!   midpoint heading, noise and Jacobians);
 //! - [`wheel_bridge`]: moving the filter's pose and covariance by it
-//!   ([`bridge_with_wheels`]): heading, path, the velocity turned with the
-//!   robot, a yaw variance grown by the wheels' yaw-rate noise;
+//!   ([`bridge_with_wheels`]): heading, path, the velocity the wheels measure
+//!   at the end (along the new heading), a yaw variance grown by the wheels'
+//!   yaw-rate noise and the radius and track uncertainty;
 //! - [`constant_velocity`]: the fallback when the wheels did not cover the
 //!   gap ([`bridge_gap`]): `p += v T`, and a generic yaw-rate density.
 

@@ -10,32 +10,39 @@
 //! - attitude: `q_1 = q_0 Exp(a psi)` (a turn about the robot's up axis);
 //! - position of the robot origin moves by `D = R_0 R_rb^T d`:
 //!   `p_1 = p_0 + R_0 l + D - R_1 l`;
-//! - velocity: kept in the body frame, `v_1 = R_1 R_0^T v_0` (it turned with
-//!   the robot); its covariance grows as in the constant-velocity bridge
-//!   (`GapConfig::accel_density^2 T`), the wheel updates after the gap
-//!   measure it again;
+//! - velocity: what the wheels measure at the end, the speed `s` along the
+//!   robot's forward axis and the yaw rate `w`:
+//!   `u = R_rb^T (s, 0, 0) + [l]x a w` (the IMU's velocity in the body),
+//!   `v_1 = R_1 u`. The velocity before the gap is forgotten: the robot may
+//!   have braked, stopped or started meanwhile;
 //! - biases, gravity and robot states kept.
 //!
 //! Error state (local attitude errors, as in [`crate::propagate`]; `R_D =
-//! Exp(a psi)`, `u = R_0^T v_0`): the rows of `F` for position, velocity and
-//! attitude are
+//! Exp(a psi)`): the rows of `F` for position, attitude and velocity are
 //!
-//! - `dp_1 = dp_0 + (-[D]x R_0 - R_0 [l]x + R_1 [l]x R_D^T) dth_0 + G_p (J dk + n)`
+//! - `dp_1 = dp_0 + (-[D]x R_0 - R_0 [l]x + R_1 [l]x R_D^T) dth_0 + G_p (K dk + n)`
 //!   (plus `(R_0 - R_1) / 2` on each contact point, through `l`);
-//! - `dth_1 = R_D^T dth_0 + G_th (J dk + n)`, `G_th = a e_3^T`;
-//! - `dv_1 = R_1 R_0^T dv_0 + R_1 [u]x (I - R_D^T) dth_0 + G_v (J dk + n)`,
-//!   `G_v = -R_1 [u]x a e_3^T`;
+//! - `dth_1 = R_D^T dth_0 + G_th (K dk + n)`;
+//! - `dv_1 = -R_1 [u]x dth_1 + R_1 R_rb^T du + R_1 [l]x a dw`, i.e.
+//!   `-R_1 [u]x R_D^T dth_0 + G_v (K dk + n)` (no dependence on `dv_0`;
+//!   plus `-R_1 [a w]x / 2` on each contact point, through `l`);
 //!
-//! with `G_p = R_0 R_rb^T diag(1, 1, 0) + R_1 [l]x a e_3^T`, `J` the
-//! dead-reckoning Jacobian w.r.t. `k = (r_l, r_r, L)` (the track `L =
-//! -e_y^T R_rb (p_br - p_bl)` depends on both contact points), and `n` its
-//! noise with covariance `S` (the mount rotation's small uncertainty is
-//! left out of `F`). So `P <- F P F^T + G S G^T + Q`, `Q` the
-//! velocity's growth and the IMU's own process noise over the gap (biases
-//! and robot states). `F P F^T` touches only the first nine rows and
-//! columns; the result is symmetrised and written only if finite.
+//! with the noise `n` = the dead reckoning's `(x, y, psi)` (covariance `S`),
+//! the end speed's forward, sideways and vertical parts and its yaw rate
+//! (the latest wheel sample's variances), mapped by `G = [G_p; G_th; G_v]`:
+//! `G_p = [R_0 R_rb^T diag(1, 1, 0) + R_1 [l]x a e_3^T, 0, 0]`,
+//! `G_th = [a e_3^T, 0, 0]`, `G_v = [-R_1 [u]x a e_3^T, R_1 R_rb^T, R_1 [l]x a]`;
+//! `K` stacks the Jacobians of `(x, y, psi)`, of the end speed and of the
+//! end yaw rate w.r.t. `k = (r_l, r_r, L)` (the track `L = -e_y^T R_rb
+//! (p_br - p_bl)` depends on both contact points). The mount rotation's
+//! small uncertainty is left out of `F`. So `P <- F P F^T + G Sigma G^T +
+//! Q`, `Q` the IMU's own process noise over the gap (biases and robot
+//! states). `F P F^T` touches only the first nine rows and columns (`F`'s
+//! velocity columns there are zero); the velocity block gets the wheels'
+//! noise, so `P` stays positive definite. The result is symmetrised and
+//! written only if finite.
 
-use nalgebra::{Matrix3, RowVector3, SMatrix};
+use nalgebra::{RowVector3, SMatrix};
 
 use crate::config::FilterConfig;
 use crate::covariance::{skew, symmetrize};
@@ -62,6 +69,10 @@ pub fn wheel_geometry(x: &NominalState, grip: &GripParams) -> WheelGeometry {
     }
 }
 
+/// Size of the noise `n`: dead reckoning `(x, y, psi)`, end speed
+/// (forward, sideways, vertical), end yaw rate.
+const NOISE: usize = 7;
+
 /// The bridged pose and the linearisation of the bridge (see the module
 /// docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,8 +82,10 @@ struct Moved {
     q_wb: Quat,
     /// The first nine rows of `F`.
     f: SMatrix<f32, POSE_VEL, DIM>,
-    /// `G`: the dead reckoning's `(x, y, psi)` into those rows.
-    g: SMatrix<f32, POSE_VEL, 3>,
+    /// `G`: the noise `n` into those rows.
+    g: SMatrix<f32, POSE_VEL, NOISE>,
+    /// The covariance of `n`.
+    sigma: SMatrix<f32, NOISE, NOISE>,
 }
 
 fn moved(x: &NominalState, motion: &DeadReckoning) -> Moved {
@@ -85,54 +98,73 @@ fn moved(x: &NominalState, motion: &DeadReckoning) -> Moved {
     let r_turn = q_turn.to_rotation_matrix().into_inner();
     let r1 = r0 * r_turn;
     let lever = x.p_b_robot();
-    let v_b0 = r0.transpose() * x.v_wb;
-    let k_v = r1 * skew(&v_b0);
     let lever_turn = r1 * skew(&lever);
+    let lever_rate = skew(&lever) * axis;
+    let u = r_rb.transpose() * Vec3::new(motion.speed, 0.0, 0.0) + lever_rate * motion.yaw_rate;
+    let k_v = -(r1 * skew(&u));
 
-    // Noise Jacobian G: (x, y, psi) of the dead reckoning -> (p, v, th).
-    let mut g = SMatrix::<f32, POSE_VEL, 3>::zeros();
-    let mut g_p = Matrix3::zeros();
-    g_p.fixed_columns_mut::<2>(0)
+    let mut g = SMatrix::<f32, POSE_VEL, NOISE>::zeros();
+    g.fixed_view_mut::<3, 2>(P, 0)
         .copy_from(&r_wr0.fixed_columns::<2>(0));
-    g_p.set_column(2, &(lever_turn * axis));
-    g.fixed_view_mut::<3, 3>(P, 0).copy_from(&g_p);
-    g.fixed_view_mut::<3, 1>(V, 2).copy_from(&(-k_v * axis));
+    g.fixed_view_mut::<3, 1>(P, 2)
+        .copy_from(&(lever_turn * axis));
     g.fixed_view_mut::<3, 1>(TH, 2).copy_from(&axis);
+    g.fixed_view_mut::<3, 1>(V, 2).copy_from(&(k_v * axis));
+    g.fixed_view_mut::<3, 3>(V, 3)
+        .copy_from(&(r1 * r_rb.transpose()));
+    g.fixed_view_mut::<3, 1>(V, 6).copy_from(&(r1 * lever_rate));
+    let mut sigma = SMatrix::<f32, NOISE, NOISE>::zeros();
+    sigma.fixed_view_mut::<3, 3>(0, 0).copy_from(&motion.noise);
+    let rv = motion.rate_var;
+    for (i, var) in [(3, rv.x), (4, rv.y), (5, rv.y), (6, rv.z)] {
+        if let Some(e) = sigma.get_mut((i, i)) {
+            *e = var;
+        }
+    }
+    // K: n's dependence on k = (r_l, r_r, L).
+    let mut k = SMatrix::<f32, NOISE, 3>::zeros();
+    k.fixed_rows_mut::<3>(0).copy_from(&motion.jacobian);
+    k.set_row(3, &motion.rate_jacobian.row(0));
+    k.set_row(6, &motion.rate_jacobian.row(1));
 
     // F's first nine rows.
     let mut f = SMatrix::<f32, POSE_VEL, DIM>::zeros();
-    f.fixed_view_mut::<POSE_VEL, POSE_VEL>(0, 0)
-        .fill_with_identity();
+    f.fixed_view_mut::<3, 3>(P, P).fill_with_identity();
     let f_pth = -skew(&delta) * r0 - r0 * skew(&lever) + lever_turn * r_turn.transpose();
     f.fixed_view_mut::<3, 3>(P, TH).copy_from(&f_pth);
-    f.fixed_view_mut::<3, 3>(V, V)
-        .copy_from(&(r1 * r0.transpose()));
-    let f_vth = k_v * (Matrix3::identity() - r_turn.transpose());
-    f.fixed_view_mut::<3, 3>(V, TH).copy_from(&f_vth);
     f.fixed_view_mut::<3, 3>(TH, TH)
         .copy_from(&r_turn.transpose());
-    // Radii and track, through the dead reckoning.
-    let g_k = g * motion.jacobian;
+    f.fixed_view_mut::<3, 3>(V, TH)
+        .copy_from(&(k_v * r_turn.transpose()));
+    // Radii and track.
+    let g_k = g * k;
     let track_row: RowVector3<f32> = r_rb.row(1).into_owned();
     let d_track = g_k.column(2) * track_row;
     f.fixed_view_mut::<POSE_VEL, 1>(0, RAD_L)
         .copy_from(&g_k.column(0));
     f.fixed_view_mut::<POSE_VEL, 1>(0, RAD_R)
         .copy_from(&g_k.column(1));
+    // The robot origin `l` is the contact points' mean: it moves the
+    // position and, turning, the IMU's velocity.
     let half_lever = (r0 - r1) * 0.5;
+    let half_lever_v = -(r1 * skew(&(axis * motion.yaw_rate))) * 0.5;
     for (col, sign) in [(CL, 1.0f32), (CR, -1.0)] {
         let mut block = d_track * sign;
         block
             .fixed_view_mut::<3, 3>(P, 0)
             .zip_apply(&half_lever, |a, b| *a += b);
+        block
+            .fixed_view_mut::<3, 3>(V, 0)
+            .zip_apply(&half_lever_v, |a, b| *a += b);
         f.fixed_view_mut::<POSE_VEL, 3>(0, col).copy_from(&block);
     }
     Moved {
         p_wb: x.p_wb + r0 * lever + delta - r1 * lever,
-        v_wb: r1 * v_b0,
+        v_wb: r1 * u,
         q_wb: Quat::new_normalize((x.q_wb * q_turn).into_inner()),
         f,
         g,
+        sigma,
     }
 }
 
@@ -155,21 +187,20 @@ pub fn bridge_with_wheels(
         q_wb,
         f,
         g,
+        sigma,
     } = moved(x, motion);
     let mut next = *p;
     let rows = f * next;
     next.fixed_rows_mut::<POSE_VEL>(0).copy_from(&rows);
     let cols = next * f.transpose();
     next.fixed_columns_mut::<POSE_VEL>(0).copy_from(&cols);
-    let q_dr = g * motion.noise * g.transpose();
+    let q_wheels = g * sigma * g.transpose();
     next.fixed_view_mut::<POSE_VEL, POSE_VEL>(0, 0)
-        .zip_apply(&q_dr, |a, b| *a += b);
-    let q_v = config.gap.accel_density * config.gap.accel_density * gap_s;
+        .zip_apply(&q_wheels, |a, b| *a += b);
     let imu = process_noise(&config.imu_noise, &config.robot, gap_s);
     for (i, q_imu) in imu.iter().enumerate() {
-        let extra = if (V..V + 3).contains(&i) { q_v } else { 0.0 };
         if let Some(d) = next.get_mut((i, i)) {
-            *d += q_imu + extra;
+            *d += q_imu;
         }
     }
     symmetrize(&mut next);
@@ -305,5 +336,36 @@ mod tests {
         huge.noise[(2, 2)] = f32::MAX;
         assert!(!bridge_with_wheels(&mut x, &mut p, &c, &huge, 0.5));
         assert_eq!((x, p), (x0, p0));
+    }
+
+    #[test]
+    fn the_velocity_after_the_bridge_is_the_wheels_end_speed() {
+        let c = FilterConfig::default();
+        let mut x = state();
+        // Uncertainties of a filter that has run a while.
+        let r = c.robot;
+        let mut d = crate::state::ErrorState::from_element(1e-8);
+        for (start, len, std) in [
+            (P, 3, 0.01),
+            (V, 3, 0.01),
+            (TH, 3, 1e-3),
+            (CL, 6, r.contact_std),
+            (RAD, 2, r.radius_std),
+        ] {
+            d.rows_mut(start, len).fill(std * std);
+        }
+        let mut p = Covariance::from_diagonal(&d);
+        let m = motion(&x);
+        assert!(bridge_with_wheels(&mut x, &mut p, &c, &m, 0.5));
+        let fwd = x.q_wb * (x.q_rb.inverse() * Vec3::x());
+        // (The IMU is not at the robot origin: a few mm/s of the turn.)
+        assert!((x.v_wb.dot(&fwd) - m.speed).abs() < 5e-3);
+        // Known to the wheels' noise and the radius uncertainty (1 mm of
+        // 35 mm: 3 %), not to the constant-velocity bridge's 0.35 m/s.
+        let v_var = (fwd.transpose() * p.fixed_view::<3, 3>(V, V) * fwd).x;
+        let radius_part = (0.03 * m.speed).powi(2);
+        assert!(v_var >= 0.9 * m.rate_var.x, "{v_var}");
+        assert!(v_var < 2.0 * (m.rate_var.x + radius_part), "{v_var}");
+        assert!(positive_definite(&p));
     }
 }
