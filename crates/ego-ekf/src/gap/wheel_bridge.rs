@@ -34,22 +34,24 @@
 //! `G_th = [a e_3^T, 0, 0]`, `G_v = [-R_1 [u]x a e_3^T, R_1 R_rb^T, R_1 [l]x a]`;
 //! `K` stacks the Jacobians of `(x, y, psi)`, of the end speed and of the
 //! end yaw rate w.r.t. `k = (r_l, r_r, L)` (the track `L = -e_y^T R_rb
-//! (p_br - p_bl)` depends on both contact points). The mount rotation's
-//! small uncertainty is left out of `F`. So `P <- F P F^T + G Sigma G^T +
+//! (p_br - p_bl)` depends on both contact points and on `R_rb`). The
+//! body-to-robot rotation `R_rb Exp(drb)` also tilts the turn's axis
+//! (`dth_1 += psi J_r(a psi) [a]x drb`, `J_r` the right Jacobian of SO(3)),
+//! turns the path (`dp_1 += R_0 [R_rb^T d]x drb`) and the end velocity. So `P <- F P F^T + G Sigma G^T +
 //! Q`, `Q` the IMU's own process noise over the gap (biases and robot
 //! states). `F P F^T` touches only the first nine rows and columns (`F`'s
 //! velocity columns there are zero); the velocity block gets the wheels'
 //! noise, so `P` stays positive definite. The result is symmetrised and
 //! written only if finite.
 
-use nalgebra::{RowVector3, SMatrix};
+use nalgebra::{Matrix3, RowVector3, SMatrix};
 
 use crate::config::FilterConfig;
 use crate::covariance::{skew, symmetrize};
 use crate::gap::dead_reckoning::{DeadReckoning, WheelGeometry};
 use crate::grip::GripParams;
 use crate::propagate::process_noise;
-use crate::state::{CL, CR, Covariance, DIM, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3};
+use crate::state::{CL, CR, Covariance, DIM, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3};
 
 /// Position, velocity and attitude: the first nine error-state rows.
 const POSE_VEL: usize = 9;
@@ -67,6 +69,18 @@ pub fn wheel_geometry(x: &NominalState, grip: &GripParams) -> WheelGeometry {
         forward_std: grip.forward_std(),
         lateral_std: grip.lateral_std(),
     }
+}
+
+/// The right Jacobian of SO(3) at `phi` (Solà 2017, eq. 183).
+fn right_jacobian(phi: &Vec3) -> Matrix3<f32> {
+    let theta = phi.norm();
+    let k = skew(phi);
+    if theta < 1e-4 {
+        return Matrix3::identity() - k * 0.5;
+    }
+    let t2 = theta * theta;
+    Matrix3::identity() - k * ((1.0 - libm::cosf(theta)) / t2)
+        + k * k * ((theta - libm::sinf(theta)) / (t2 * theta))
 }
 
 /// Size of the noise `n`: dead reckoning `(x, y, psi)`, end speed
@@ -136,6 +150,16 @@ fn moved(x: &NominalState, motion: &DeadReckoning) -> Moved {
         .copy_from(&r_turn.transpose());
     f.fixed_view_mut::<3, 3>(V, TH)
         .copy_from(&(k_v * r_turn.transpose()));
+    // The body-to-robot rotation: it sets the turn's axis, the path's
+    // direction and the end velocity's direction.
+    let th_rb = right_jacobian(&(axis * motion.psi)) * skew(&axis) * motion.psi;
+    let forward_b = r_rb.transpose() * Vec3::new(motion.speed, 0.0, 0.0);
+    let d_b = r_rb.transpose() * Vec3::new(motion.x, motion.y, 0.0);
+    let p_rb = r0 * skew(&d_b) + lever_turn * th_rb;
+    let v_rb = k_v * th_rb + r1 * (skew(&forward_b) + skew(&lever) * skew(&axis) * motion.yaw_rate);
+    f.fixed_view_mut::<3, 3>(P, RB).copy_from(&p_rb);
+    f.fixed_view_mut::<3, 3>(TH, RB).copy_from(&th_rb);
+    f.fixed_view_mut::<3, 3>(V, RB).copy_from(&v_rb);
     // Radii and track.
     let g_k = g * k;
     let track_row: RowVector3<f32> = r_rb.row(1).into_owned();
@@ -146,6 +170,10 @@ fn moved(x: &NominalState, motion: &DeadReckoning) -> Moved {
         .copy_from(&g_k.column(1));
     // The robot origin `l` is the contact points' mean: it moves the
     // position and, turning, the IMU's velocity.
+    let track_rb = track_row * skew(&(x.p_br - x.p_bl));
+    let mut rb_cols = f.fixed_view::<POSE_VEL, 3>(0, RB).into_owned();
+    rb_cols += g_k.column(2) * track_rb;
+    f.fixed_view_mut::<POSE_VEL, 3>(0, RB).copy_from(&rb_cols);
     let half_lever = (r0 - r1) * 0.5;
     let half_lever_v = -(r1 * skew(&(axis * motion.yaw_rate))) * 0.5;
     for (col, sign) in [(CL, 1.0f32), (CR, -1.0)] {
@@ -277,7 +305,10 @@ mod tests {
     fn the_transition_matches_finite_differences() {
         let x = state();
         let m0 = moved(&x, &motion(&x));
-        let columns = (0..9).chain(CL..CL + 6).chain(RAD..RAD + 2);
+        let columns = (0..9)
+            .chain(CL..CL + 6)
+            .chain(RB..RB + 3)
+            .chain(RAD..RAD + 2);
         for i in columns {
             let h = if i >= RAD { 1e-4 } else { 1e-3 };
             let mut dx = ErrorState::zeros();
