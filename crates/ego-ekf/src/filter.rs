@@ -8,6 +8,7 @@ use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
 use crate::flow::model::reset_velocity;
 use crate::flow::{FlowFused, FlowFusion};
+use crate::gap::odometry::SpeedWitness;
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
@@ -379,7 +380,10 @@ impl EgoEkf {
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
         // too far ahead of the filter's time.
         let geometry = wheel_geometry(&self.x, &self.grip);
-        let _ = self.gap_odometry.offer(now, rates, &geometry, &self.config);
+        let witness = self.speed_witness(rates.t);
+        let _ = self
+            .gap_odometry
+            .offer(now, rates, &geometry, witness, &self.config);
         let gyro = self.angular_velocity();
         let mut out = self.wheel.fuse(
             &mut self.x,
@@ -400,6 +404,23 @@ impl EgoEkf {
         }
         debug_assert!(covariance::looks_valid(&self.p));
         out
+    }
+
+    /// The flow's forward speed at `t`, if it is recent and precise (the
+    /// wheels are checked against it while the IMU is silent).
+    fn speed_witness(&self, t: Timestamp) -> Option<SpeedWitness> {
+        self.config.flow?;
+        let r = &self.config.recovery;
+        self.flow
+            .witness(t)
+            .filter(|w| {
+                t.as_nanos().abs_diff(w.t.as_nanos()) <= r.flow_max_age_ns
+                    && w.std <= r.flow_witness_max_std
+            })
+            .map(|w| SpeedWitness {
+                speed: w.velocity.x,
+                std: w.std,
+            })
     }
 
     /// Asks the most trusted witness about the velocity after a run of gated
@@ -643,6 +664,12 @@ impl EgoEkf {
     /// [`EgoEkf::wheel_counts`] with the wheel update's outcome.
     pub fn gap_wheel_counts(&self) -> &SampleCounts {
         self.gap_odometry.counts()
+    }
+
+    /// Of those, the samples whose wheels disagreed with the flow (spinning)
+    /// and were scaled to its speed.
+    pub fn gap_wheel_slips(&self) -> u32 {
+        self.gap_odometry.slips()
     }
 
     /// Flow reports fused, gated and rejected by reason.

@@ -19,6 +19,13 @@
 //! - wheel geometry the filter cannot use (non-positive radius or track,
 //!   [`Reject::Degenerate`]).
 //!
+//! Wheels that spin (or skid) measure a distance the robot did not drive.
+//! When the flow sensor, recent and precise, sees a forward speed that the
+//! sample's disagrees with (beyond three standard deviations of both, and
+//! above 5 cm/s), the sample's rates are scaled to the flow's speed (a
+//! symmetric spin inflates the yaw rate by the same factor) and its noise
+//! becomes the flow's; counted in [`GapOdometry::slips`].
+//!
 //! When the IMU returns, [`GapOdometry::take`] hands over the motion if it
 //! started at the gap's start and was never broken, after extrapolating the
 //! last rates to the IMU's return (at most `wheel_max_dt_ns`); otherwise
@@ -31,6 +38,21 @@ use vslam_core::{Reject, SampleCounts, Timestamp};
 
 use crate::config::FilterConfig;
 use crate::gap::dead_reckoning::{DeadReckoning, WheelGeometry};
+
+/// A forward speed seen by another sensor (the flow), to check the wheels
+/// against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpeedWitness {
+    /// Forward speed of the robot origin, m/s.
+    pub speed: f32,
+    /// Its standard deviation, m/s.
+    pub std: f32,
+}
+
+/// Chi-square gate (1 DOF, three standard deviations) of the wheel-flow check.
+const SLIP_GATE: f32 = 9.0;
+/// Below this wheel speed, m/s, the wheels are not checked (turning in place).
+const SLIP_MIN_SPEED: f32 = 0.05;
 
 /// Wheel dead reckoning while the IMU is silent; see the module docs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +67,7 @@ pub struct GapOdometry {
     samples: u32,
     broken: bool,
     counts: SampleCounts,
+    slips: u32,
 }
 
 impl Default for GapOdometry {
@@ -64,6 +87,7 @@ impl GapOdometry {
             samples: 0,
             broken: false,
             counts: SampleCounts::new(),
+            slips: 0,
         }
     }
 
@@ -72,19 +96,26 @@ impl GapOdometry {
         &self.counts
     }
 
+    /// Gap samples whose wheels disagreed with the flow and were scaled to it.
+    pub fn slips(&self) -> u32 {
+        self.slips
+    }
+
     /// The motion integrated since the gap starting at `imu_last`, if any.
     pub fn motion_since(&self, imu_last: Timestamp) -> Option<&DeadReckoning> {
         (self.anchor == Some(imu_last) && self.samples > 0).then_some(&self.motion)
     }
 
-    /// Offers a wheel sample, with the filter's latest IMU time. Returns
-    /// `None` when the sample is not during a gap (nothing counted), else
-    /// the outcome (counted).
+    /// Offers a wheel sample, with the filter's latest IMU time and, if
+    /// there is one, a witness of the forward speed. Returns `None` when the
+    /// sample is not during a gap (nothing counted), else the outcome
+    /// (counted).
     pub fn offer(
         &mut self,
         imu_last: Timestamp,
         rates: &WheelRates,
         geometry: &WheelGeometry,
+        witness: Option<SpeedWitness>,
         config: &FilterConfig,
     ) -> Option<Result<(), Reject>> {
         if !config.gap.wheels {
@@ -99,10 +130,11 @@ impl GapOdometry {
                 anchor: Some(imu_last),
                 last: imu_last,
                 counts: self.counts,
+                slips: self.slips,
                 ..GapOdometry::new()
             };
         }
-        let outcome = self.integrate(rates, geometry, config);
+        let outcome = self.integrate(rates, geometry, witness, config);
         self.counts.record(outcome);
         Some(outcome)
     }
@@ -111,6 +143,7 @@ impl GapOdometry {
         &mut self,
         rates: &WheelRates,
         geometry: &WheelGeometry,
+        witness: Option<SpeedWitness>,
         config: &FilterConfig,
     ) -> Result<(), Reject> {
         if !(rates.left.is_finite() && rates.right.is_finite()) {
@@ -136,14 +169,27 @@ impl GapOdometry {
             self.broken = true;
             return Err(Reject::Gap);
         }
+        let (mut left, mut right, mut geometry) = (rates.left, rates.right, *geometry);
+        let (speed, _) = geometry.motion(left, right);
+        if let Some(w) = witness.filter(|w| w.speed.is_finite() && w.std.is_finite()) {
+            let var = 0.5 * geometry.forward_std * geometry.forward_std + w.std * w.std;
+            let d = speed - w.speed;
+            if libm::fabsf(speed) > SLIP_MIN_SPEED && d * d > SLIP_GATE * var {
+                let scale = w.speed / speed;
+                left *= scale;
+                right *= scale;
+                geometry.forward_std = geometry.forward_std.max(w.std * libm::sqrtf(2.0));
+                self.slips = self.slips.saturating_add(1);
+            }
+        }
         if !self
             .motion
-            .step(geometry, rates.left, rates.right, nanos_to_seconds(dt_ns))
+            .step(&geometry, left, right, nanos_to_seconds(dt_ns))
         {
             return Err(Reject::NonFinite);
         }
         self.last = rates.t;
-        self.last_rates = (rates.left, rates.right);
+        self.last_rates = (left, right);
         self.samples = self.samples.saturating_add(1);
         Ok(())
     }
@@ -213,13 +259,22 @@ mod tests {
         let mut o = GapOdometry::new();
         let imu = Timestamp(1000 * MS);
         // Within one IMU step of the filter time, or before it: not a gap.
-        assert_eq!(o.offer(imu, &rates(1010, 8.0, 8.0), &geometry(), &c), None);
-        assert_eq!(o.offer(imu, &rates(990, 8.0, 8.0), &geometry(), &c), None);
+        assert_eq!(
+            o.offer(imu, &rates(1010, 8.0, 8.0), &geometry(), None, &c),
+            None
+        );
+        assert_eq!(
+            o.offer(imu, &rates(990, 8.0, 8.0), &geometry(), None, &c),
+            None
+        );
         // One IMU step (20 ms) late is not yet a gap.
-        assert_eq!(o.offer(imu, &rates(1020, 8.0, 8.0), &geometry(), &c), None);
+        assert_eq!(
+            o.offer(imu, &rates(1020, 8.0, 8.0), &geometry(), None, &c),
+            None
+        );
         assert_eq!(o.counts().seen(), 0);
         for k in 2..=25u64 {
-            let got = o.offer(imu, &rates(1000 + 20 * k, 8.0, 8.0), &geometry(), &c);
+            let got = o.offer(imu, &rates(1000 + 20 * k, 8.0, 8.0), &geometry(), None, &c);
             assert_eq!(got, Some(Ok(())));
         }
         let m = o
@@ -240,25 +295,46 @@ mod tests {
         let mut o = GapOdometry::new();
         let imu = Timestamp(0);
         let g = geometry();
-        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, &c), Some(Ok(())));
+        assert_eq!(
+            o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &c),
+            Some(Ok(()))
+        );
         let nan = rates(60, f32::NAN, 8.0);
-        assert_eq!(o.offer(imu, &nan, &g, &c), Some(Err(Reject::NonFinite)));
+        assert_eq!(
+            o.offer(imu, &nan, &g, None, &c),
+            Some(Err(Reject::NonFinite))
+        );
         let inf = rates(60, 8.0, f32::INFINITY);
-        assert_eq!(o.offer(imu, &inf, &g, &c), Some(Err(Reject::NonFinite)));
+        assert_eq!(
+            o.offer(imu, &inf, &g, None, &c),
+            Some(Err(Reject::NonFinite))
+        );
         let huge = rates(60, 1.0e6, 8.0);
-        assert_eq!(o.offer(imu, &huge, &g, &c), Some(Err(Reject::OutOfRange)));
+        assert_eq!(
+            o.offer(imu, &huge, &g, None, &c),
+            Some(Err(Reject::OutOfRange))
+        );
         let same = rates(40, 8.0, 8.0);
-        assert_eq!(o.offer(imu, &same, &g, &c), Some(Err(Reject::Duplicate)));
+        assert_eq!(
+            o.offer(imu, &same, &g, None, &c),
+            Some(Err(Reject::Duplicate))
+        );
         let older = rates(30, 8.0, 8.0);
-        assert_eq!(o.offer(imu, &older, &g, &c), Some(Err(Reject::OutOfOrder)));
+        assert_eq!(
+            o.offer(imu, &older, &g, None, &c),
+            Some(Err(Reject::OutOfOrder))
+        );
         let bad = WheelGeometry {
             track: f32::NAN,
             ..g
         };
         let ok = rates(80, 8.0, 8.0);
-        assert_eq!(o.offer(imu, &ok, &bad, &c), Some(Err(Reject::Degenerate)));
+        assert_eq!(
+            o.offer(imu, &ok, &bad, None, &c),
+            Some(Err(Reject::Degenerate))
+        );
         // The refused ones left the integration alone; a good one goes on.
-        assert_eq!(o.offer(imu, &ok, &g, &c), Some(Ok(())));
+        assert_eq!(o.offer(imu, &ok, &g, None, &c), Some(Ok(())));
         let counts = o.counts();
         assert_eq!(fused(counts), 2);
         assert_eq!(counts.rejected(Reject::NonFinite), 2);
@@ -276,22 +352,65 @@ mod tests {
         let mut o = GapOdometry::new();
         let imu = Timestamp(0);
         let g = geometry();
-        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, &c), Some(Ok(())));
+        assert_eq!(
+            o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &c),
+            Some(Ok(()))
+        );
         let late = rates(40 + 300, 8.0, 8.0);
-        assert_eq!(o.offer(imu, &late, &g, &c), Some(Err(Reject::Gap)));
+        assert_eq!(o.offer(imu, &late, &g, None, &c), Some(Err(Reject::Gap)));
         assert_eq!(o.take(imu, Timestamp(400 * MS), &g, &c), None);
         // Wheels that stop before the IMU returns: the tail is too long.
         let mut o = GapOdometry::new();
-        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, &c), Some(Ok(())));
+        assert_eq!(
+            o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &c),
+            Some(Ok(()))
+        );
         assert_eq!(o.take(imu, Timestamp(400 * MS), &g, &c), None);
         // A different gap (the anchor moved on): nothing to take.
         let mut o = GapOdometry::new();
-        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, &c), Some(Ok(())));
+        assert_eq!(
+            o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &c),
+            Some(Ok(()))
+        );
         assert_eq!(o.take(Timestamp(MS), Timestamp(50 * MS), &g, &c), None);
         // Switched off: nothing offered.
         let mut off = c;
         off.gap.wheels = false;
         let mut o = GapOdometry::new();
-        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, &off), None);
+        assert_eq!(o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &off), None);
+    }
+
+    #[test]
+    fn spinning_wheels_are_scaled_to_the_flow() {
+        let c = FilterConfig::default();
+        let g = geometry();
+        let imu = Timestamp(0);
+        // Wheels say 0.42 m/s, the flow 0.30 +- 0.01: spinning.
+        let flow = Some(SpeedWitness {
+            speed: 0.3,
+            std: 0.01,
+        });
+        let mut o = GapOdometry::new();
+        for k in 2..=25u64 {
+            assert_eq!(
+                o.offer(imu, &rates(20 * k, 12.0, 12.0), &g, flow, &c),
+                Some(Ok(()))
+            );
+        }
+        assert_eq!(o.slips(), 24);
+        let m = o.take(imu, Timestamp(500 * MS), &g, &c).expect("covered");
+        assert!((m.x - 0.3 * 0.5).abs() < 1e-3, "{}", m.x);
+        // Agreeing wheels, a vague flow, or turning in place: wheels kept.
+        let cases = [
+            (8.0, 8.0, 0.28, 0.01),
+            (12.0, 12.0, 0.3, 0.2),
+            (-1.0, 1.0, 0.3, 0.01),
+        ];
+        for (l, r, speed, std) in cases {
+            let mut o = GapOdometry::new();
+            let w = Some(SpeedWitness { speed, std });
+            assert_eq!(o.offer(imu, &rates(40, l, r), &g, w, &c), Some(Ok(())));
+            assert_eq!(o.slips(), 0, "{l} {r} {speed} {std}");
+        }
     }
 }
