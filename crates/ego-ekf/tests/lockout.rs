@@ -548,3 +548,46 @@ fn a_strip_after_a_lockout_is_a_strip_not_an_obstacle() {
     assert!(kinds.iter().all(|k| !k.is_obstacle()), "{recovered:?}");
     assert!(recovered.iter().all(|e| !e.kind.is_obstacle()));
 }
+
+#[test]
+fn wheels_spinning_during_an_imu_gap_are_scaled_to_the_flow() {
+    // IMU silent for 1 s; the wheels spin 1.5x faster than the ground in the
+    // middle of it. With a precise flow the gap's distance is the flow's; the
+    // test of the test: without the flow the spin is driven distance.
+    let (from, gap) = (1.0, 1.0);
+    let mut errors = Vec::new();
+    for flow in [true, false] {
+        let script = Script {
+            duration: from + gap + 0.5,
+            imu_silent: Some((from, from + gap)),
+            spin: Some((from + 0.2, from + 0.8, 1.5)),
+            flow_squal: flow.then_some(150),
+            ..Script::default()
+        };
+        let mut f = start(config(flow, true));
+        let mut truth_x = 0.0f64;
+        let mut err_after = 0.0f32;
+        let after = from + gap + 0.008;
+        drive(&script, &mut f, 11, |t, v, f| {
+            truth_x += v * DT;
+            if (t - after).abs() < 1e-6 {
+                err_after = (f.position().x - truth_x as f32).abs();
+            }
+        });
+        eprintln!(
+            "flow {flow}: error {err_after:.3} m after the gap, {} slipping samples scaled",
+            f.gap_wheel_slips()
+        );
+        assert_eq!(f.gaps().by_wheels, 1);
+        if flow {
+            assert!(f.gap_wheel_slips() >= 25, "{}", f.gap_wheel_slips());
+        } else {
+            assert_eq!(f.gap_wheel_slips(), 0);
+        }
+        assert_healthy(&f);
+        errors.push(err_after);
+    }
+    // 0.6 s at 0.15 m/s too fast: 9 cm without the flow.
+    assert!(errors[0] < 0.02, "{errors:?}");
+    assert!(errors[1] > 0.06, "{errors:?}");
+}
