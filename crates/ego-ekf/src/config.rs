@@ -253,16 +253,27 @@ pub struct GapConfig {
     /// Density of the robot's unmeasured acceleration, m/s^2/sqrt(Hz)
     /// (white-noise-acceleration model over the gap).
     pub accel_density: f32,
-    /// Density of its unmeasured angular rate, rad/s/sqrt(Hz).
+    /// Density of its unmeasured angular rate, rad/s/sqrt(Hz) (when the
+    /// wheels cannot dead-reckon the gap).
     pub gyro_density: f32,
+    /// Whether wheel samples taken during the gap dead-reckon it (turns
+    /// included, see [`crate::gap::odometry`]); otherwise, or when they do not
+    /// cover it, the gap is bridged at constant velocity.
+    pub wheels: bool,
+    /// Largest plausible speed of one wheel's contact point, m/s; a gap
+    /// sample above it is [`vslam_core::Reject::OutOfRange`].
+    pub max_wheel_speed: f32,
 }
 
 impl Default for GapConfig {
-    /// A robot vacuum: about 0.5 m/s^2 and 1 rad/s in one second.
+    /// A robot vacuum: about 0.5 m/s^2 and 1 rad/s in one second; wheels
+    /// dead-reckon gaps, up to 2 m/s per wheel.
     fn default() -> Self {
         GapConfig {
             accel_density: 0.5,
             gyro_density: 1.0,
+            wheels: true,
+            max_wheel_speed: 2.0,
         }
     }
 }
@@ -389,6 +400,7 @@ impl FilterConfig {
             self.recovery.steady_tolerance,
             self.gap.accel_density,
             self.gap.gyro_density,
+            self.gap.max_wheel_speed,
         ];
         let flow_noise = self
             .flow

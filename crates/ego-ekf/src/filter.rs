@@ -8,7 +8,8 @@ use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
 use crate::flow::model::reset_velocity;
 use crate::flow::{FlowFused, FlowFusion};
-use crate::gap::bridge_gap;
+use crate::gap::odometry::SpeedWitness;
+use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
 use crate::propagate::{
@@ -98,6 +99,7 @@ pub struct EgoEkf {
     flow: FlowFusion,
     recovery: RecoveryCounts,
     gaps: GapCounts,
+    gap_odometry: GapOdometry,
 }
 
 /// IMU gaps the filter bridged (see [`crate::gap`]).
@@ -109,6 +111,9 @@ pub struct GapCounts {
     pub total_ns: u64,
     /// The longest, ns.
     pub longest_ns: u64,
+    /// Of the gaps bridged, those the wheels dead-reckoned (the others at
+    /// constant velocity).
+    pub by_wheels: u32,
 }
 
 /// The flow's velocity, its forward component combined (inverse-variance)
@@ -176,6 +181,7 @@ impl EgoEkf {
             ),
             recovery: RecoveryCounts::default(),
             gaps: GapCounts::default(),
+            gap_odometry: GapOdometry::new(),
             config,
         })
     }
@@ -248,9 +254,10 @@ impl EgoEkf {
     /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
     /// beyond the configured range are rejected with their reason and leave
     /// the state untouched, except that the sample ending a gap (longer than
-    /// the configured step) first bridges it: position extrapolated, the
-    /// covariance grown by the unmeasured motion (see [`crate::gap`]),
-    /// counted in [`EgoEkf::gaps`].
+    /// the configured step) first bridges it: pose moved by the wheels'
+    /// dead reckoning over the gap (or, without it, extrapolated at constant
+    /// velocity), the covariance grown by what was not measured (see
+    /// [`crate::gap`]), counted in [`EgoEkf::gaps`].
     pub fn propagate(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
         let outcome = self.propagate_inner(sample);
         self.imu_counts.record(outcome.map(|_| ()));
@@ -273,7 +280,7 @@ impl EgoEkf {
             && dt == Err(Reject::Gap)
             && let Some(gap_ns) = previous.and_then(|p| sample.t().nanos_since(p))
         {
-            self.bridge(gap_ns);
+            self.bridge(gap_ns, previous, sample.t());
         }
         if !self.initialised {
             dt?;
@@ -340,11 +347,18 @@ impl EgoEkf {
         })
     }
 
-    fn bridge(&mut self, gap_ns: u64) {
+    /// Bridges the gap from `start` to `end` (`gap_ns` long): with the
+    /// wheels' dead reckoning if they covered it, else at constant velocity.
+    fn bridge(&mut self, gap_ns: u64, start: Option<Timestamp>, end: Timestamp) {
         let gap_s = vslam_core::time::nanos_to_seconds(gap_ns);
-        if bridge_gap(&mut self.x, &mut self.p, &self.config, gap_s) {
+        let geometry = wheel_geometry(&self.x, &self.grip);
+        let motion = start.and_then(|s| self.gap_odometry.take(s, end, &geometry, &self.config));
+        let by_wheels = motion
+            .is_some_and(|m| bridge_with_wheels(&mut self.x, &mut self.p, &self.config, &m, gap_s));
+        if by_wheels || bridge_gap(&mut self.x, &mut self.p, &self.config, gap_s) {
             self.still.interrupt();
             let g = &mut self.gaps;
+            g.by_wheels = g.by_wheels.saturating_add(u32::from(by_wheels));
             g.bridged = g.bridged.saturating_add(1);
             g.total_ns = g.total_ns.saturating_add(gap_ns);
             g.longest_ns = g.longest_ns.max(gap_ns);
@@ -362,6 +376,14 @@ impl EgoEkf {
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
             return Err(self.wheel.refuse(Reject::NotReady));
         };
+        // While the IMU is silent the sample dead-reckons the gap (counted in
+        // `gap_wheel_counts`); the wheel fusion below refuses it if it is
+        // too far ahead of the filter's time.
+        let geometry = wheel_geometry(&self.x, &self.grip);
+        let witness = self.speed_witness(rates.t);
+        let _ = self
+            .gap_odometry
+            .offer(now, rates, &geometry, witness, &self.config);
         let gyro = self.angular_velocity();
         let mut out = self.wheel.fuse(
             &mut self.x,
@@ -382,6 +404,23 @@ impl EgoEkf {
         }
         debug_assert!(covariance::looks_valid(&self.p));
         out
+    }
+
+    /// The flow's forward speed at `t`, if it is recent and precise (the
+    /// wheels are checked against it while the IMU is silent).
+    fn speed_witness(&self, t: Timestamp) -> Option<SpeedWitness> {
+        self.config.flow?;
+        let r = &self.config.recovery;
+        self.flow
+            .witness(t)
+            .filter(|w| {
+                t.as_nanos().abs_diff(w.t.as_nanos()) <= r.flow_max_age_ns
+                    && w.std <= r.flow_witness_max_std
+            })
+            .map(|w| SpeedWitness {
+                speed: w.velocity.x,
+                std: w.std,
+            })
     }
 
     /// Asks the most trusted witness about the velocity after a run of gated
@@ -618,6 +657,19 @@ impl EgoEkf {
     /// IMU gaps bridged (see [`crate::gap`]).
     pub fn gaps(&self) -> &GapCounts {
         &self.gaps
+    }
+
+    /// Wheel samples that dead-reckoned IMU gaps, and those refused for it
+    /// by reason (see [`crate::gap::odometry`]); the same samples are also in
+    /// [`EgoEkf::wheel_counts`] with the wheel update's outcome.
+    pub fn gap_wheel_counts(&self) -> &SampleCounts {
+        self.gap_odometry.counts()
+    }
+
+    /// Of those, the samples whose wheels disagreed with the flow (spinning)
+    /// and were scaled to its speed.
+    pub fn gap_wheel_slips(&self) -> u32 {
+        self.gap_odometry.slips()
     }
 
     /// Flow reports fused, gated and rejected by reason.

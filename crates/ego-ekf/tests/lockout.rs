@@ -364,54 +364,76 @@ fn wheels_turning_while_stuck_are_never_the_reset_source() {
 
 #[test]
 fn an_imu_gap_is_bridged_with_grown_uncertainty_and_counted() {
-    for (gap, pause) in [(0.5, None), (5.0, Some((1.4, 3.0)))] {
-        // IMU silent from 1 s; in the long gap the robot also stops for a
-        // while, unmeasured. Wheels go on.
-        let from = 1.0;
-        let script = Script {
-            duration: from + gap + 2.0,
-            imu_silent: Some((from, from + gap)),
-            pause,
-            ..Script::default()
-        };
-        let mut f = start(config(false, true));
-        let mut truth_x = 0.0f64;
-        let (mut std_before, mut std_after) = (0.0f32, 0.0f32);
-        let mut err_after = 0.0f32;
-        let mut err_end = 0.0f32;
-        let after = from + gap + 0.008;
-        let at = |t: f64, x: f64| (t - x).abs() < 1e-6;
-        let run = drive(&script, &mut f, 5, |t, v, f| {
-            truth_x += v * DT;
-            if at(t, from - 0.02) {
-                std_before = f.position_std().x;
+    // With the wheels dead-reckoning the gap, and without (constant velocity).
+    for wheels in [true, false] {
+        for (gap, pause) in [(0.5, None), (5.0, Some((1.4, 3.0)))] {
+            // IMU silent from 1 s; in the long gap the robot also stops for a
+            // while, unmeasured by the IMU. Wheels go on.
+            let from = 1.0;
+            let script = Script {
+                duration: from + gap + 2.0,
+                imu_silent: Some((from, from + gap)),
+                pause,
+                ..Script::default()
+            };
+            let mut c = config(false, true);
+            c.gap.wheels = wheels;
+            let mut f = start(c);
+            let mut truth_x = 0.0f64;
+            let (mut std_before, mut std_after) = (0.0f32, 0.0f32);
+            let mut err_after = 0.0f32;
+            let mut err_end = 0.0f32;
+            let after = from + gap + 0.008;
+            let at = |t: f64, x: f64| (t - x).abs() < 1e-6;
+            let run = drive(&script, &mut f, 5, |t, v, f| {
+                truth_x += v * DT;
+                if at(t, from - 0.02) {
+                    std_before = f.position_std().x;
+                }
+                if at(t, after) {
+                    std_after = f.position_std().x;
+                    err_after = (f.position().x - truth_x as f32).abs();
+                }
+                err_end = (f.position().x - truth_x as f32).abs();
+            });
+            let g = f.gaps();
+            eprintln!(
+                "gap {gap} s, wheels {wheels}: bridged {} ({} by wheels), position std {std_before:.4} -> {std_after:.4} m, error {err_after:.3} m after, {err_end:.3} m at the end; wheel rejections {:?}",
+                g.bridged,
+                g.by_wheels,
+                f.wheel_counts().by_reason().collect::<Vec<_>>()
+            );
+            assert_eq!(g.bridged, 1);
+            assert_eq!(g.by_wheels, u32::from(wheels));
+            assert_eq!(f.imu_counts().rejected(Reject::Gap), 1);
+            assert!((g.longest_ns as f64 * 1e-9 - gap).abs() < 0.01);
+            if wheels {
+                // The wheels measured the distance: the uncertainty grows by
+                // their noise and radius uncertainty only, and the pause is
+                // seen (constant velocity would overshoot it).
+                assert!(std_after > std_before, "{std_before} -> {std_after}");
+                assert!(err_after < 0.02, "{err_after}");
+                let used = f.gap_wheel_counts();
+                assert!(
+                    used.seen() - used.rejected_total() >= ((gap - 0.04) * 50.0) as u32,
+                    "{used:?}"
+                );
+            } else {
+                assert!(std_after > std_before * 3.0, "{std_before} -> {std_after}");
+                assert_eq!(f.gap_wheel_counts().seen(), 0);
             }
-            if at(t, after) {
-                std_after = f.position_std().x;
-                err_after = (f.position().x - truth_x as f32).abs();
-            }
-            err_end = (f.position().x - truth_x as f32).abs();
-        });
-        let g = f.gaps();
-        eprintln!(
-            "gap {gap} s: bridged {}, position std {std_before:.4} -> {std_after:.4} m, error {err_after:.3} m after, {err_end:.3} m at the end; wheel rejections {:?}",
-            g.bridged,
-            f.wheel_counts().by_reason().collect::<Vec<_>>()
-        );
-        assert_eq!(g.bridged, 1);
-        assert_eq!(f.imu_counts().rejected(Reject::Gap), 1);
-        assert!((g.longest_ns as f64 * 1e-9 - gap).abs() < 0.01);
-        assert!(std_after > std_before * 3.0, "{std_before} -> {std_after}");
-        // The error is inside what the filter now admits.
-        assert!(err_after < 3.0 * std_after, "{err_after} vs {std_after}");
-        // Wheel samples taken while the IMU was silent are refused, counted.
-        // (Those within 50 ms of the last IMU sample are still fused.)
-        let ahead = f.wheel_counts().rejected(Reject::NotReady);
-        assert!(ahead as f64 >= (gap - 0.05) * 50.0 - 1.0, "{ahead}");
-        // The wheels are fused again at once: no lockout after the gap.
-        assert!(run.max_error(from + gap + 0.3, from + gap + 2.0) < 0.03);
-        assert!(f.recovery().resets() == 0, "{:?}", run.verdicts);
-        assert_healthy(&f);
+            // The error is inside what the filter now admits.
+            assert!(err_after < 3.0 * std_after, "{err_after} vs {std_after}");
+            // Wheel samples taken while the IMU was silent are refused by
+            // the wheel update, counted. (Those within 50 ms of the last IMU
+            // sample are still fused.)
+            let ahead = f.wheel_counts().rejected(Reject::NotReady);
+            assert!(ahead as f64 >= (gap - 0.05) * 50.0 - 1.0, "{ahead}");
+            // The wheels are fused again at once: no lockout after the gap.
+            assert!(run.max_error(from + gap + 0.3, from + gap + 2.0) < 0.03);
+            assert!(f.recovery().resets() == 0, "{:?}", run.verdicts);
+            assert_healthy(&f);
+        }
     }
 }
 
@@ -525,4 +547,47 @@ fn a_strip_after_a_lockout_is_a_strip_not_an_obstacle() {
     assert_eq!(kinds.len(), 2, "{recovered:?}");
     assert!(kinds.iter().all(|k| !k.is_obstacle()), "{recovered:?}");
     assert!(recovered.iter().all(|e| !e.kind.is_obstacle()));
+}
+
+#[test]
+fn wheels_spinning_during_an_imu_gap_are_scaled_to_the_flow() {
+    // IMU silent for 1 s; the wheels spin 1.5x faster than the ground in the
+    // middle of it. With a precise flow the gap's distance is the flow's; the
+    // test of the test: without the flow the spin is driven distance.
+    let (from, gap) = (1.0, 1.0);
+    let mut errors = Vec::new();
+    for flow in [true, false] {
+        let script = Script {
+            duration: from + gap + 0.5,
+            imu_silent: Some((from, from + gap)),
+            spin: Some((from + 0.2, from + 0.8, 1.5)),
+            flow_squal: flow.then_some(150),
+            ..Script::default()
+        };
+        let mut f = start(config(flow, true));
+        let mut truth_x = 0.0f64;
+        let mut err_after = 0.0f32;
+        let after = from + gap + 0.008;
+        drive(&script, &mut f, 11, |t, v, f| {
+            truth_x += v * DT;
+            if (t - after).abs() < 1e-6 {
+                err_after = (f.position().x - truth_x as f32).abs();
+            }
+        });
+        eprintln!(
+            "flow {flow}: error {err_after:.3} m after the gap, {} slipping samples scaled",
+            f.gap_wheel_slips()
+        );
+        assert_eq!(f.gaps().by_wheels, 1);
+        if flow {
+            assert!(f.gap_wheel_slips() >= 25, "{}", f.gap_wheel_slips());
+        } else {
+            assert_eq!(f.gap_wheel_slips(), 0);
+        }
+        assert_healthy(&f);
+        errors.push(err_after);
+    }
+    // 0.6 s at 0.15 m/s too fast: 9 cm without the flow.
+    assert!(errors[0] < 0.02, "{errors:?}");
+    assert!(errors[1] > 0.06, "{errors:?}");
 }

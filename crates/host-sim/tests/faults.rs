@@ -191,11 +191,9 @@ fn imu_outlier_is_integrated_with_bounded_effect() {
     check_recovers("imu-outlier@4");
 }
 
-// The same limitation as `imu_half_second_gap`: 0.2 s of saturated samples
-// are rejected (counted `saturated`), and the filter then misses 0.2 s of
-// motion (0.039 m at window end + 2 s against a bound of 0.030 m).
+// 0.2 s of saturated samples are rejected (counted `saturated`): an IMU gap
+// for the filter, bridged like `imu_half_second_gap`.
 #[test]
-#[ignore = "library limitation in ego-ekf filter.rs: an IMU outage loses the distance driven"]
 fn imu_saturated_recovers() {
     check_recovers("imu-saturated@4+0.2");
 }
@@ -262,17 +260,13 @@ fn half_second_gaps() {
     check_recovers("wheel-gap@4+0.5,flow-gap@4+0.5");
 }
 
-// LIBRARY LIMITATION (ego-ekf filter.rs, reported to the lead): while the
-// IMU is silent the filter does not propagate at all, and the first sample
-// after the silence is refused as a gap (dt > imu_max_dt, 20 ms) with only a
-// re-anchoring of the clock, so the distance driven during the silence is
-// lost for good (0.5 s at 0.3 m/s: 0.13 m error at window end + 2 s against
-// 0.03 m fault-free; 5 s: 1.5 m). Bridging the gap with the wheel/flow
-// velocity (or propagating the step at constant velocity) would recover it.
-// Everything else holds: the sample is counted as `gap`, the state stays
-// finite and the covariance SPD (`check` passes).
+// While the IMU is silent the filter does not propagate; the first sample
+// after the silence is refused as a gap (dt > imu_max_dt, 20 ms) and first
+// bridges it: the wheel samples that arrived meanwhile dead-reckon the
+// heading and the path (`ego_ekf::gap`), so the turn driven during the
+// silence is not lost. Counted as `gap`, the state finite, the covariance
+// SPD, and the error back within the bound.
 #[test]
-#[ignore = "library limitation in ego-ekf filter.rs: an IMU silence loses the distance driven"]
 fn imu_half_second_gap() {
     check_recovers("imu-gap@4+0.5");
 }
@@ -284,7 +278,6 @@ fn imu_gaps_are_counted_and_harmless_to_the_state() {
 }
 
 #[test]
-#[ignore = "library limitation in ego-ekf filter.rs: an IMU silence loses the distance driven"]
 fn imu_silent_for_five_seconds() {
     check_recovers("imu-gap@2+5");
 }

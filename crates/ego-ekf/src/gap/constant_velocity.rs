@@ -1,4 +1,5 @@
-//! Bridging an IMU gap.
+//! Bridging an IMU gap at constant velocity: the fallback when the wheels did
+//! not dead-reckon it (see [`crate::gap`]).
 //!
 //! When the IMU stream breaks for longer than the configured step
 //! (`FilterConfig::imu_max_dt_ns`), the sample after the break is refused
