@@ -91,8 +91,7 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
     let a_w = x.q_wb * accel + x.gravity;
     x.p_wb += x.v_wb * dt + a_w * (0.5 * dt * dt);
     x.v_wb += a_w * dt;
-    let q = x.q_wb * crate::state::Quat::from_scaled_axis(gyro * dt);
-    x.q_wb = crate::state::Quat::new_normalize(q.into_inner());
+    x.q_wb = crate::state::rotate_local(&x.q_wb, &(gyro * dt));
 }
 
 // The block step below relies on position, velocity and attitude being the
