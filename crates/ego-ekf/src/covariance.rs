@@ -111,6 +111,27 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
     }
 }
 
+/// Below this rotation correction (rad, on every axis of every rotation
+/// block) an update skips the error reset (`G = I`).
+///
+/// `G = I - [dtheta/2]x` changes the covariance by relative terms of order
+/// `|dtheta| / 2`; for the small corrections of routine updates many
+/// error-state filters take `G = I` (Solà 2017, sec. 7.2; PX4 EKF2 never
+/// resets its covariance). Below 1e-4 rad the neglected change is at most
+/// about 1e-4 of `sqrt(P_ii P_jj)` per entry, and the measured effect on
+/// the simulated office drive is nil (see the accuracy notes of
+/// `benches/README.md`); larger corrections (a first fix, a reset after a
+/// lockout, a gap) still get the exact reset.
+pub const RESET_MIN_ANGLE: f32 = 1.0e-4;
+
+/// Whether the correction `dx` rotates any rotation block by more than
+/// [`RESET_MIN_ANGLE`] on some axis (then [`reset`] is applied).
+pub fn reset_needed(dx: &ErrorState) -> bool {
+    ROTATIONS
+        .iter()
+        .any(|b| dx.fixed_rows::<3>(*b).amax() > RESET_MIN_ANGLE)
+}
+
 /// [`reset`] on the upper triangle only (entries `(i, j)`, `i <= j`), for
 /// a covariance whose lower triangle is stale (after [`crate::update::downdate_upper`]);
 /// [`crate::update::mirror_upper_to_lower`] completes it afterwards.

@@ -27,7 +27,7 @@
 use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
-use crate::covariance::reset_upper;
+use crate::covariance::{reset_needed, reset_upper};
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
@@ -292,11 +292,17 @@ pub fn fuse_prepared<const M: usize>(
     if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
-    // `P - W W^T`, then the reset `G P G^T`, both on the upper triangle;
-    // the mirror makes `P` exactly symmetric.
-    downdate_upper(p, &w);
-    reset_upper(p, &dx);
-    mirror_upper_to_lower(p);
+    // `P - W W^T`, then the reset `G P G^T` where it matters (see
+    // [`reset_needed`]), both on the upper triangle; the mirror makes `P`
+    // exactly symmetric. Without a reset, Cortex-M writes both triangles in
+    // the downdate itself (the same bits, no mirror).
+    if reset_needed(&dx) {
+        downdate_upper(p, &w);
+        reset_upper(p, &dx);
+        mirror_upper_to_lower(p);
+    } else {
+        downdate_symmetric(p, &w);
+    }
     x.inject(&dx);
     Ok(UpdateReport { nis })
 }
@@ -432,36 +438,69 @@ pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, 
         }
     }
     #[cfg(target_arch = "arm")]
-    for (b, cols) in p.data.0.chunks_mut(4).enumerate() {
-        match cols {
-            [c0, c1, c2, c3] => {
-                let j = 4 * b;
-                let (a0, a1, a2, a3) = (
-                    row_of(w, j),
-                    row_of(w, j + 1),
-                    row_of(w, j + 2),
-                    row_of(w, j + 3),
-                );
-                let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
-                for (i, (((p0, p1), p2), p3)) in rows.zip(c3.iter_mut()).enumerate().take(j + 4) {
-                    let wi = row_of(w, i);
-                    let mut v = [*p0, *p1, *p2, *p3];
-                    for (r, wir) in wi.iter().enumerate() {
-                        let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
-                        v = mul_sub4(v, [at(&a0), at(&a1), at(&a2), at(&a3)], *wir);
-                    }
-                    [*p0, *p1, *p2, *p3] = v;
+    downdate_blocked(p, w, false);
+}
+
+/// `P <- P - W W^T` on both triangles, bit for bit [`downdate_upper`]
+/// followed by [`mirror_upper_to_lower`]: on hosts exactly that; on
+/// Cortex-M the four-column pass also stores each entry above the diagonal
+/// into its mirror image (contiguous in the column of its row), so no
+/// separate mirror pass runs.
+pub fn downdate_symmetric<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    #[cfg(not(target_arch = "arm"))]
+    {
+        downdate_upper(p, w);
+        mirror_upper_to_lower(p);
+    }
+    #[cfg(target_arch = "arm")]
+    downdate_blocked(p, w, true);
+}
+
+/// The Cortex-M downdate, four columns `j..j + 4` at a time over the rows
+/// `0..j + 4` (the diagonal block whole: its lower entries are the same
+/// products as its upper ones, so equal bit for bit), the last three
+/// columns one by one. With `symmetric`, each entry of a row `i < j` is
+/// also stored at `(j.., i)`, and the last columns are done over all rows.
+#[cfg(target_arch = "arm")]
+fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>, symmetric: bool) {
+    let cols = &mut p.data.0;
+    let mut j = 0;
+    while let Some((left, right)) = cols.split_at_mut_checked(j) {
+        if let [c0, c1, c2, c3, ..] = right {
+            let (a0, a1, a2, a3) = (
+                row_of(w, j),
+                row_of(w, j + 1),
+                row_of(w, j + 2),
+                row_of(w, j + 3),
+            );
+            let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
+            for (i, (((p0, p1), p2), p3)) in rows.zip(c3.iter_mut()).enumerate().take(j + 4) {
+                let wi = row_of(w, i);
+                let mut v = [*p0, *p1, *p2, *p3];
+                for (r, wir) in wi.iter().enumerate() {
+                    let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
+                    v = mul_sub4(v, [at(&a0), at(&a1), at(&a2), at(&a3)], *wir);
+                }
+                [*p0, *p1, *p2, *p3] = v;
+                if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(j..j + 4)) {
+                    dst.copy_from_slice(&v);
                 }
             }
-            rest => {
-                for (c, col) in rest.iter_mut().enumerate() {
-                    let j = 4 * b + c;
-                    let wj = row_of(w, j);
-                    for (i, pij) in col.iter_mut().enumerate().take(j + 1) {
-                        *pij = entry_minus(*pij, w, i, &wj);
+            j += 4;
+        } else {
+            for (c, col) in right.iter_mut().enumerate() {
+                let jc = j + c;
+                let wj = row_of(w, jc);
+                let rows = if symmetric { DIM } else { jc + 1 };
+                for (i, pij) in col.iter_mut().enumerate().take(rows) {
+                    let v = entry_minus(*pij, w, i, &wj);
+                    *pij = v;
+                    if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(jc)) {
+                        *dst = v;
                     }
                 }
             }
+            break;
         }
     }
 }
@@ -495,14 +534,6 @@ pub(crate) fn block_of(col: &[f32; DIM], k: usize) -> [f32; 4] {
     col.get(4 * k..4 * k + 4)
         .and_then(|s| <[f32; 4]>::try_from(s).ok())
         .unwrap_or([0.0; 4])
-}
-
-/// `acc + v a`, lane by lane (one vector multiply and add where there are
-/// vector units).
-#[inline(always)]
-pub(crate) fn mul_add4(acc: [f32; 4], v: [f32; 4], a: f32) -> [f32; 4] {
-    let ([s0, s1, s2, s3], [v0, v1, v2, v3]) = (acc, v);
-    [s0 + v0 * a, s1 + v1 * a, s2 + v2 * a, s3 + v3 * a]
 }
 
 /// `acc - v a`, lane by lane.
