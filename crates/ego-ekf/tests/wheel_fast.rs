@@ -6,10 +6,11 @@
 //! proptest cases over random states, positive-definite covariances, gyro
 //! rates, wheel rates and gates. Also the pieces: the triangle reset with the
 //! mirror against the dense reset, and the cheap quaternion exponential
-//! against nalgebra's.
+//! and the Rodrigues rotation of the IMU step against nalgebra's.
 
 use ego_ekf::covariance::{is_positive_definite, reset_dense, reset_upper};
 use ego_ekf::grip::GripParams;
+use ego_ekf::propagate::exp_so3;
 use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{
     CTH, Covariance, DIM, ErrorState, NominalState, Quat, RB, TH, Vec3, rotate_local,
@@ -227,6 +228,19 @@ proptest! {
         prop_assert!(err < 1e-5, "reset differs by {}", err);
         prop_assert_eq!(fast, fast.transpose());
         prop_assert!(is_positive_definite(&fast));
+    }
+
+    /// The Rodrigues series of the IMU step's rotation is nalgebra's
+    /// `Rotation3::new`, for small and large angles.
+    #[test]
+    fn rotation_exponential_equals_nalgebra(
+        axis in prop::array::uniform3(-1.0f32..1.0),
+        angle in prop_oneof![0.0f32..0.06, 0.0f32..3.0],
+    ) {
+        let phi = Vec3::from(axis) * angle;
+        let fast = exp_so3(&phi);
+        let exact = nalgebra::Rotation3::new(phi).into_inner();
+        prop_assert!((fast - exact).amax() < 2e-7, "differs by {}", (fast - exact).amax());
     }
 
     /// The series and the Newton renormalisation give nalgebra's
