@@ -269,23 +269,28 @@ pub fn fuse_prepared<const M: usize>(
     // `P H^T` combined by forward substitution, whole columns at a time.
     let mut w = *pht;
     forward_substitute(l, &inv_diag, &mut w.data.0);
-    // In one pass over the rows of W: the correction `dx = W z`, and the
-    // refusal of an update that would leave a non-positive (or non-finite)
+    // Refuse an update that would leave a non-positive (or non-finite)
     // variance: the diagonal of `W W^T` against that of `P`.
-    let mut dx = ErrorState::zeros();
-    let mut valid = true;
-    for (i, (col, dxi)) in p.data.0.iter().zip(dx.iter_mut()).enumerate() {
-        let (mut reduction, mut correction) = (0.0f32, 0.0f32);
-        for (w_r, [zr]) in w.data.0.iter().zip(z) {
-            let v = w_r.get(i).copied().unwrap_or(0.0);
-            reduction += v * v;
-            correction += v * zr;
+    let mut reduction = [0.0f32; DIM];
+    for w_r in w.data.0.iter() {
+        for (red, v) in reduction.iter_mut().zip(w_r) {
+            *red += v * v;
         }
-        let after = col.get(i).copied().unwrap_or(0.0) - reduction;
-        valid &= (after > 0.0) & (after < f32::INFINITY) & correction.is_finite();
-        *dxi = correction;
+    }
+    let mut valid = true;
+    for (i, (col, red)) in p.data.0.iter().zip(reduction).enumerate() {
+        let after = col.get(i).copied().unwrap_or(0.0) - red;
+        valid &= (after > 0.0) & (after < f32::INFINITY);
     }
     if !valid {
+        return Err(Reject::Degenerate);
+    }
+    // The correction `dx = W z`, whole columns at a time.
+    let mut dx = ErrorState::zeros();
+    for (w_r, [zr]) in w.data.0.iter().zip(z) {
+        axpy(&mut dx.data.0[0], zr, w_r);
+    }
+    if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
     // `P - W W^T`, then the reset `G P G^T` where it matters (see
