@@ -434,8 +434,11 @@ pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, 
                 *block = v;
             }
         }
-        for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(4 * n) {
-            *pij = entry_minus(*pij, w, i, &wj);
+        // Rows past the last whole block: only in the last columns.
+        if j >= 4 * n {
+            for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(4 * n) {
+                *pij = entry_minus(*pij, w, i, &wj);
+            }
         }
     }
     #[cfg(target_arch = "arm")]
