@@ -11,15 +11,21 @@
 //!
 //! The arithmetic follows the structure, as PX4 EKF2's generated code does:
 //! - `P H^T` only over the columns where `H` is nonzero ([`Support`]; the
-//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15);
+//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15; the
+//!   wheel computes it from its factored rows, see
+//!   [`crate::wheel::model::WheelRows::p_ht`]);
 //! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
-//!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`;
-//! - `P <- P - W W^T` in place, no 35x35 temporary, exactly symmetric by
-//!   construction: on every entry on hosts with vector units ([`downdate`]),
-//!   on the upper triangle and mirrored on Cortex-M ([`downdate_upper`],
-//!   [`mirror_upper_to_lower`]; half the products, the same bits);
-//! - the reset touches only the rotation rows and columns
-//!   ([`crate::covariance::reset`]).
+//!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`: the
+//!   sequence of scalar updates row by row, with all their rank-one
+//!   downdates in one pass over `P` ([`fuse_prepared`]);
+//! - `P <- P - W W^T` in place, no 35x35 temporary, on the upper triangle
+//!   ([`downdate_upper`], half the products) and mirrored
+//!   ([`mirror_upper_to_lower`]), or on Cortex-M with both triangles written
+//!   in the same pass ([`downdate_symmetric`]): exactly symmetric, the same
+//!   bits on every target;
+//! - the reset on the upper triangle, only the rotation rows and columns
+//!   ([`crate::covariance::reset_upper`]), and only for corrections above
+//!   [`crate::covariance::RESET_MIN_ANGLE`] (`G = I` below).
 //!
 //! [`crate::reference::gated_update_dense`] is the straightforward dense
 //! formula (Joseph form) the tests compare against.
