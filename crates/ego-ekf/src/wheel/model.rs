@@ -79,6 +79,8 @@ const CONSTRAINT_TO: usize = 18;
 /// The four wheel rows with their Jacobian kept on its nonzero columns only
 /// ([`SUPPORT`]) and their (diagonal) noise: what the fast update needs.
 /// [`WheelRows::measurement`] expands it into the dense [`Measurement`].
+/// Built by [`wheel_rows`]; [`WheelRows::p_ht`] uses the factors recorded
+/// there (not `h`'s mid-point rows), so the fields are for reading.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelRows {
     /// Residual `z - h(x_hat)` of the four rows.
