@@ -1,10 +1,10 @@
 //! Benchmarks of the ego-state EKF: one IMU propagation (nominal state and
 //! the full 35x35 covariance, block-structured; the dense `F P F^T + Q`
 //! reference for comparison) and one wheel update (full covariance; the
-//! update maths alone, structured and dense Joseph-form reference, for
-//! comparison). Setup (a filter warmed up on seeded samples) is outside the
-//! timer. Instruction counts of the same steps: `examples/ekf_steps.rs` of
-//! `ego-ekf` under callgrind.
+//! update maths alone: the wheel's fast path, the generic structured update
+//! and the dense Joseph-form reference, for comparison). Setup (a filter
+//! warmed up on seeded samples) is outside the timer. Instruction counts of
+//! the same steps: `examples/ekf_steps.rs` of `ego-ekf` under callgrind.
 #![allow(missing_docs)]
 
 use std::hint::black_box;
@@ -16,7 +16,8 @@ use ego_ekf::propagate::{
 use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{Quat, Vec3};
 use ego_ekf::update::gated_update;
-use ego_ekf::wheel::model::wheel_measurement;
+use ego_ekf::wheel::model::{wheel_measurement, wheel_rows};
+use ego_ekf::wheel::update::update as wheel_update;
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
 use vslam_core::Timestamp;
 use vslam_core::sensors::{ImuSample, WheelRates};
@@ -119,6 +120,17 @@ fn benches(c: &mut Criterion) {
         )
     });
 
+    let rows = wheel_rows(&x, &filter.angular_velocity(), &rates, &filter.grip());
+    c.bench_function(
+        "ekf/wheel update maths (4 rows, fast: sparse P H^T, gate, one pass)",
+        |b| {
+            b.iter_batched_ref(
+                || (x, p0),
+                |(x, p)| wheel_update(black_box(x), black_box(p), black_box(&rows), 100.0),
+                BatchSize::SmallInput,
+            )
+        },
+    );
     let m = wheel_measurement(&x, &filter.angular_velocity(), &rates, &filter.grip());
     c.bench_function("ekf/update maths (4 rows, structured)", |b| {
         b.iter_batched_ref(

@@ -111,6 +111,85 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
     }
 }
 
+/// Below this rotation correction (rad, on every axis of every rotation
+/// block) an update skips the error reset (`G = I`).
+///
+/// `G = I - [dtheta/2]x` changes the covariance by relative terms of order
+/// `|dtheta| / 2`; for the small corrections of routine updates many
+/// error-state filters take `G = I` (Solà 2017, sec. 7.2; PX4 EKF2 never
+/// resets its covariance). Below 1e-4 rad the neglected change is at most
+/// about 1e-4 of `sqrt(P_ii P_jj)` per entry, and the measured effect on
+/// the simulated office drive is nil (see the accuracy notes of
+/// `benches/README.md`); larger corrections (a first fix, a reset after a
+/// lockout, a gap) still get the exact reset.
+pub const RESET_MIN_ANGLE: f32 = 1.0e-4;
+
+/// Whether the correction `dx` rotates any rotation block by more than
+/// [`RESET_MIN_ANGLE`] on some axis (then [`reset`] is applied).
+pub fn reset_needed(dx: &ErrorState) -> bool {
+    ROTATIONS
+        .iter()
+        .any(|b| dx.fixed_rows::<3>(*b).amax() > RESET_MIN_ANGLE)
+}
+
+/// [`reset`] on the upper triangle only (entries `(i, j)`, `i <= j`), for
+/// a covariance whose lower triangle is stale (after [`crate::update::downdate_upper`]);
+/// [`crate::update::mirror_upper_to_lower`] completes it afterwards.
+///
+/// For `i <= j`, `(G P G^T)[i, j]` is `P[i, j]` rotated on the column side
+/// when `j` is a rotation index and on the row side when `i` is: first the
+/// rotation columns over the rows up to their block's end (the 3x3
+/// diagonal blocks are made whole first, since their lower part is read),
+/// then the rotation rows over the columns from their block's start. About
+/// 700 multiply-adds and no copies (the full-matrix [`reset`] also copies
+/// nine rows through a snapshot).
+pub fn reset_upper(p: &mut Covariance, dx: &ErrorState) {
+    let halves = ROTATIONS.map(|b| dx.fixed_rows::<3>(b) * 0.5);
+    let cols = &mut p.data.0;
+    // The diagonal blocks' lower parts, from their upper parts.
+    for b in ROTATIONS {
+        if let Some([c0, c1, c2]) = cols.get_mut(b..b + 3) {
+            // Column c holds rows b..=b+c of the block's upper part.
+            let (u01, u02, u12) = (c1.get(b), c2.get(b), c2.get(b + 1));
+            let (u01, u02, u12) = (u01.copied(), u02.copied(), u12.copied());
+            for (dst, v) in [(c0.get_mut(b + 1), u01), (c1.get_mut(b + 2), u12)] {
+                if let (Some(dst), Some(v)) = (dst, v) {
+                    *dst = v;
+                }
+            }
+            if let (Some(dst), Some(v)) = (c0.get_mut(b + 2), u02) {
+                *dst = v;
+            }
+        }
+    }
+    // Column side: the rotation columns, rows up to the block's end.
+    for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+        let Some([c0, c1, c2]) = cols.get_mut(*b..*b + 3) else {
+            continue;
+        };
+        let (ax, ay, az) = (a.x, a.y, a.z);
+        let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
+        for ((x, y), z) in rows.take(*b + 3) {
+            let (x0, y0, z0) = (*x, *y, *z);
+            *x = x0 + az * y0 - ay * z0;
+            *y = y0 - az * x0 + ax * z0;
+            *z = z0 + ay * x0 - ax * y0;
+        }
+    }
+    // Row side: the rotation rows, columns from the block's start.
+    for (b, a) in ROTATIONS.iter().zip(halves.iter()) {
+        let (ax, ay, az) = (a.x, a.y, a.z);
+        for col in cols.iter_mut().skip(*b) {
+            if let Some([x, y, z]) = col.get_mut(*b..*b + 3) {
+                let (x0, y0, z0) = (*x, *y, *z);
+                *x = x0 + az * y0 - ay * z0;
+                *y = y0 - az * x0 + ax * z0;
+                *z = z0 + ay * x0 - ax * y0;
+            }
+        }
+    }
+}
+
 /// The reset written as the dense product `G P G^T` (the reference the
 /// tests compare [`reset`] against).
 pub fn reset_dense(p: &mut Covariance, dx: &ErrorState) {

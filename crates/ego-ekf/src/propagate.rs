@@ -46,7 +46,7 @@ impl Transition {
             dt,
             f_vth: -(r_wb * skew(accel)) * dt,
             f_vba: -r_wb * dt,
-            f_thth: Rotation3::new(gyro * dt).matrix().transpose(),
+            f_thth: exp_so3(&(gyro * dt)).transpose(),
         }
     }
 
@@ -62,6 +62,27 @@ impl Transition {
         f.fixed_view_mut::<3, 3>(TH, BG).copy_from(&(-i3 * self.dt));
         f
     }
+}
+
+/// Below this squared angle (rad^2; 0.05 rad) [`exp_so3`] takes the series
+/// of `sin(t)/t` and `(1 - cos t)/t^2` to the `t^4` term: the next terms
+/// (`t^6/5040`, `t^6/40320`) are below `4e-12`, far under `f32` rounding.
+const SERIES_MAX_ANGLE_SQ: f32 = 0.05 * 0.05;
+
+/// The rotation matrix `Exp(phi)` by the Rodrigues formula
+/// `I + a [phi]x + b [phi]x^2`, `a = sin(t)/t`, `b = (1 - cos t)/t^2`,
+/// `t = |phi|` (Solà 2017, eq. 77): by series below 0.05 rad (an IMU step
+/// turns by a few mrad), so no `sinf`/`cosf`; nalgebra's `Rotation3::new`
+/// otherwise.
+pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
+    let t2 = phi.norm_squared();
+    if t2 >= SERIES_MAX_ANGLE_SQ {
+        return *Rotation3::new(*phi).matrix();
+    }
+    let a = 1.0 - t2 * (1.0 / 6.0) + t2 * t2 * (1.0 / 120.0);
+    let b = 0.5 - t2 * (1.0 / 24.0) + t2 * t2 * (1.0 / 720.0);
+    let k = skew(phi);
+    Matrix3::identity() + k * a + (k * k) * b
 }
 
 /// The diagonal of the discrete process noise `Q` for a step of `dt`
@@ -91,8 +112,7 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
     let a_w = x.q_wb * accel + x.gravity;
     x.p_wb += x.v_wb * dt + a_w * (0.5 * dt * dt);
     x.v_wb += a_w * dt;
-    let q = x.q_wb * crate::state::Quat::from_scaled_axis(gyro * dt);
-    x.q_wb = crate::state::Quat::new_normalize(q.into_inner());
+    x.q_wb = crate::state::rotate_local(&x.q_wb, &(gyro * dt));
 }
 
 // The block step below relies on position, velocity and attitude being the

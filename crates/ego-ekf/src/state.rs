@@ -31,7 +31,7 @@
 //! IMU: nominal 19, error [`IMU_DIM`] = 18; clone 6; robot 11; total
 //! [`DIM`] = 35.
 
-use nalgebra::{SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// 3-vector, `f32`.
 pub type Vec3 = Vector3<f32>;
@@ -128,22 +128,18 @@ impl NominalState {
     pub fn inject(&mut self, dx: &ErrorState) {
         self.p_wb += dx.fixed_rows::<3>(P);
         self.v_wb += dx.fixed_rows::<3>(V);
-        self.q_wb *= Quat::from_scaled_axis(dx.fixed_rows::<3>(TH).into_owned());
+        self.q_wb = rotate_local(&self.q_wb, &dx.fixed_rows::<3>(TH).into_owned());
         self.accel_bias += dx.fixed_rows::<3>(BA);
         self.gyro_bias += dx.fixed_rows::<3>(BG);
         self.gravity += dx.fixed_rows::<3>(G);
         self.clone_p_wb += dx.fixed_rows::<3>(CP);
-        self.clone_q_wb *= Quat::from_scaled_axis(dx.fixed_rows::<3>(CTH).into_owned());
+        self.clone_q_wb = rotate_local(&self.clone_q_wb, &dx.fixed_rows::<3>(CTH).into_owned());
         self.p_bl += dx.fixed_rows::<3>(CL);
         self.p_br += dx.fixed_rows::<3>(CR);
-        self.q_rb *= Quat::from_scaled_axis(dx.fixed_rows::<3>(RB).into_owned());
+        self.q_rb = rotate_local(&self.q_rb, &dx.fixed_rows::<3>(RB).into_owned());
         let radii = dx.fixed_rows::<2>(RAD);
         self.radius_left += radii.x;
         self.radius_right += radii.y;
-        // Keep the quaternions unit despite f32 rounding.
-        self.q_wb = Quat::new_normalize(self.q_wb.into_inner());
-        self.clone_q_wb = Quat::new_normalize(self.clone_q_wb.into_inner());
-        self.q_rb = Quat::new_normalize(self.q_rb.into_inner());
     }
 
     /// Whether every component is finite.
@@ -163,5 +159,40 @@ impl NominalState {
             && q.iter().all(|q| q.coords.iter().all(|x| x.is_finite()))
             && self.radius_left.is_finite()
             && self.radius_right.is_finite()
+    }
+}
+
+/// Below this squared angle (rad^2; 0.05 rad) [`rotate_local`] takes the
+/// series of `cos(t/2)` and `sin(t/2)/t` to the `t^4` term: the next terms
+/// (`t^6/46080`, `t^6/645120`) are below `4e-13`, far under `f32` rounding.
+const SERIES_MAX_ANGLE_SQ: f32 = 0.05 * 0.05;
+
+/// `q Exp(dtheta)`, the local (right) perturbation of Solà 2017 (eq. 101),
+/// with the quaternion exponential `[cos(t/2), sin(t/2) dtheta/t]`,
+/// `t = |dtheta|`, and the product brought back to unit norm.
+///
+/// Cheap for the small angles of filter updates and IMU steps: a series
+/// instead of `sinf`/`cosf` below 0.05 rad (exact in `f32`), and the norm
+/// restored by one Newton step of `1/sqrt` around 1 (`q (3 - |q|^2) / 2`),
+/// which takes a norm error `e` to about `e^2`: the product of two unit
+/// quaternions is off by a few ulps only, so no square root is needed.
+pub fn rotate_local(q: &Quat, dtheta: &Vec3) -> Quat {
+    let t2 = dtheta.norm_squared();
+    let (w, s) = if t2 < SERIES_MAX_ANGLE_SQ {
+        (
+            1.0 - t2 * (1.0 / 8.0) + t2 * t2 * (1.0 / 384.0),
+            0.5 - t2 * (1.0 / 48.0) + t2 * t2 * (1.0 / 3840.0),
+        )
+    } else {
+        let t = libm::sqrtf(t2);
+        (libm::cosf(0.5 * t), libm::sinf(0.5 * t) / t)
+    };
+    let dq = Quaternion::new(w, s * dtheta.x, s * dtheta.y, s * dtheta.z);
+    let r = q.quaternion() * dq;
+    let n2 = r.norm_squared();
+    if libm::fabsf(n2 - 1.0) < 1e-3 {
+        Quat::new_unchecked(r * (1.5 - 0.5 * n2))
+    } else {
+        Quat::new_normalize(r)
     }
 }

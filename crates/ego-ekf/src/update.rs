@@ -11,15 +11,21 @@
 //!
 //! The arithmetic follows the structure, as PX4 EKF2's generated code does:
 //! - `P H^T` only over the columns where `H` is nonzero ([`Support`]; the
-//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15);
+//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15; the
+//!   wheel computes it from its factored rows, see
+//!   [`crate::wheel::model::WheelRows::p_ht`]);
 //! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
-//!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`;
-//! - `P <- P - W W^T` in place, no 35x35 temporary, exactly symmetric by
-//!   construction: on every entry on hosts with vector units ([`downdate`]),
-//!   on the upper triangle and mirrored on Cortex-M ([`downdate_upper`],
-//!   [`mirror_upper_to_lower`]; half the products, the same bits);
-//! - the reset touches only the rotation rows and columns
-//!   ([`crate::covariance::reset`]).
+//!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`: the
+//!   sequence of scalar updates row by row, with all their rank-one
+//!   downdates in one pass over `P` ([`fuse_prepared`]);
+//! - `P <- P - W W^T` in place, no 35x35 temporary, on the upper triangle
+//!   ([`downdate_upper`], half the products) and mirrored
+//!   ([`mirror_upper_to_lower`]), or on Cortex-M with both triangles written
+//!   in the same pass ([`downdate_symmetric`]): exactly symmetric, the same
+//!   bits on every target;
+//! - the reset on the upper triangle, only the rotation rows and columns
+//!   ([`crate::covariance::reset_upper`]), and only for corrections above
+//!   [`crate::covariance::RESET_MIN_ANGLE`] (`G = I` below).
 //!
 //! [`crate::reference::gated_update_dense`] is the straightforward dense
 //! formula (Joseph form) the tests compare against.
@@ -27,7 +33,7 @@
 use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
-use crate::covariance::reset;
+use crate::covariance::{reset_needed, reset_upper};
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
@@ -216,7 +222,7 @@ fn update_with_support<const M: usize>(
     pht: &SMatrix<f32, DIM, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
-    if !m.is_finite() || !all_finite(pht.as_slice()) {
+    if !m.is_finite() {
         return Err(Reject::NonFinite);
     }
     // S = H (P H^T) + R over the support of H: column c gains
@@ -230,10 +236,33 @@ fn update_with_support<const M: usize>(
             }
         }
     }
-    let (l, inv_diag) = cholesky(&s).ok_or(Reject::Degenerate)?;
+    fuse_prepared(x, p, pht, &s, &m.residual, gate)
+}
+
+/// The update from its ingredients: `pht = P H^T`, `s = H P H^T + R` and
+/// the residual `y`, for a measurement whose finiteness the caller checked
+/// (a non-finite `P H^T` is caught as [`Reject::Degenerate`] by the
+/// variance check below, so it is not scanned separately). Gated by `gate`
+/// on the NIS when given; errors and guarantees as [`gated_update`].
+///
+/// Equal to `M` sequential scalar updates (the rows' noises need not be
+/// uncorrelated: the Cholesky factor of `S` decorrelates them), each
+/// `P <- P - k k^T s_r`, but with the `M` rank-one downdates applied in one
+/// pass over the upper triangle of `P`: the scalar updates change only the
+/// `35 x M` block `P H^T` (by forward substitution), never `P` itself until
+/// the end.
+pub fn fuse_prepared<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    pht: &SMatrix<f32, DIM, M>,
+    s: &SMatrix<f32, M, M>,
+    residual: &SVector<f32, M>,
+    gate: Option<f32>,
+) -> Result<UpdateReport, Reject> {
+    let (l, inv_diag) = cholesky(s).ok_or(Reject::Degenerate)?;
     let l = &l;
     // z = L^-1 y: NIS = |z|^2.
-    let mut z = m.residual.data.0[0].map(|v| [v]);
+    let mut z = residual.data.0[0].map(|v| [v]);
     forward_substitute(l, &inv_diag, &mut z);
     let nis = z.iter().map(|[v]| v * v).sum::<f32>();
     if !nis.is_finite() {
@@ -246,8 +275,8 @@ fn update_with_support<const M: usize>(
     // `P H^T` combined by forward substitution, whole columns at a time.
     let mut w = *pht;
     forward_substitute(l, &inv_diag, &mut w.data.0);
-    // Refuse an update that would leave a non-positive variance: the
-    // diagonal of `W W^T` against that of `P`.
+    // Refuse an update that would leave a non-positive (or non-finite)
+    // variance: the diagonal of `W W^T` against that of `P`.
     let mut reduction = [0.0f32; DIM];
     for w_r in w.data.0.iter() {
         for (red, v) in reduction.iter_mut().zip(w_r) {
@@ -262,6 +291,7 @@ fn update_with_support<const M: usize>(
     if !valid {
         return Err(Reject::Degenerate);
     }
+    // The correction `dx = W z`, whole columns at a time.
     let mut dx = ErrorState::zeros();
     for (w_r, [zr]) in w.data.0.iter().zip(z) {
         axpy(&mut dx.data.0[0], zr, w_r);
@@ -269,17 +299,18 @@ fn update_with_support<const M: usize>(
     if !all_finite(dx.as_slice()) {
         return Err(Reject::Degenerate);
     }
-    // Vector hosts: the full downdate; scalar cores: half the products and a
-    // mirror. The two give the same bits (see `downdate`).
-    #[cfg(not(target_arch = "arm"))]
-    downdate(p, &w);
-    #[cfg(target_arch = "arm")]
-    {
+    // `P - W W^T`, then the reset `G P G^T` where it matters (see
+    // [`reset_needed`]), both on the upper triangle; the mirror makes `P`
+    // exactly symmetric. Without a reset, Cortex-M writes both triangles in
+    // the downdate itself (the same bits, no mirror).
+    if reset_needed(&dx) {
         downdate_upper(p, &w);
+        reset_upper(p, &dx);
         mirror_upper_to_lower(p);
+    } else {
+        downdate_symmetric(p, &w);
     }
     x.inject(&dx);
-    reset(p, &dx);
     Ok(UpdateReport { nis })
 }
 
@@ -287,15 +318,19 @@ fn update_with_support<const M: usize>(
 /// the diagonal is row `j` of the columns to its right.
 pub fn mirror_upper_to_lower(p: &mut Covariance) {
     let cols = &mut p.data.0;
-    for j in 0..DIM {
-        let Some((head, right)) = cols.split_at_mut_checked(j + 1) else {
+    // Column c's rows above the diagonal (contiguous) go to row c of the
+    // columns on its left.
+    for c in 1..DIM {
+        let Some((left, right)) = cols.split_at_mut_checked(c) else {
             continue;
         };
-        let Some(col) = head.last_mut() else {
+        let Some(src) = right.first() else {
             continue;
         };
-        for (dst, src) in col.iter_mut().skip(j + 1).zip(right.iter()) {
-            *dst = src.get(j).copied().unwrap_or(*dst);
+        for (dst_col, v) in left.iter_mut().zip(src.iter()) {
+            if let Some(dst) = dst_col.get_mut(c) {
+                *dst = *v;
+            }
         }
     }
 }
@@ -367,61 +402,153 @@ fn forward_substitute<const M: usize, const N: usize>(
     }
 }
 
-/// `P <- P - W W^T` on every entry, column by column. Entries `(i, j)` and
-/// `(j, i)` are the same sum of the same products in the same order, so the
-/// result is exactly symmetric if `P` was, and bit for bit equal to
-/// [`downdate_upper`] followed by [`mirror_upper_to_lower`]. On a host with
-/// vector units this is the cheaper of the two (the mirror's strided copies
-/// cost more than the products it saves); on a scalar core (`target_arch =
-/// "arm"`, Cortex-M4) the update uses the triangle and the mirror.
+/// `P <- P - W W^T` on every entry, column by column: entry `(i, j)` is
+/// `P[i, j] - W[i, 0] W[j, 0] - W[i, 1] W[j, 1] - ...` in that order, so
+/// the result is exactly symmetric if `P` was, and bit for bit equal to
+/// [`downdate_upper`] followed by [`mirror_upper_to_lower`] (which the
+/// update uses: half the products; measured cheaper on the host too, with
+/// the reset done on the triangle before the mirror).
 pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
     for (j, col) in p.data.0.iter_mut().enumerate() {
-        // Row j of W.
-        let wj: [f32; M] = core::array::from_fn(|r| {
-            w.data
-                .0
-                .get(r)
-                .and_then(|c| c.get(j))
-                .copied()
-                .unwrap_or(0.0)
-        });
+        let wj = row_of(w, j);
         for (i, pij) in col.iter_mut().enumerate() {
-            let mut sum = 0.0f32;
-            for (w_r, a) in w.data.0.iter().zip(wj) {
-                sum += w_r.get(i).copied().unwrap_or(0.0) * a;
-            }
-            *pij -= sum;
+            *pij = entry_minus(*pij, w, i, &wj);
         }
     }
 }
 
-/// `P <- P - W W^T` on the upper triangle of `P` (row <= column), column by
-/// column. Each column's
-/// rows are rounded up to a multiple of eight so that the loops vectorise
-/// without scalar remainders; the few lower-triangle entries this also
-/// updates are overwritten by the mirror that follows.
+/// `P <- P - W W^T` on the upper triangle of `P` (row <= column): every
+/// entry is `P[i, j] - W[i, 0] W[j, 0] - W[i, 1] W[j, 1] - ...` in that
+/// order, as in [`downdate`] (so that with [`mirror_upper_to_lower`] the
+/// two agree bit for bit, and the host with the firmware). On hosts with
+/// vector units each column's rows are taken in blocks of four (rounded up
+/// past the diagonal: the few lower-triangle entries this also updates are
+/// overwritten by the mirror); on Cortex-M (`target_arch = "arm"`, scalar)
+/// four columns at a time, so that their rows of `W` stay in registers and
+/// each row of `W` is loaded once per four entries.
 pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    #[cfg(not(target_arch = "arm"))]
     for (j, col) in p.data.0.iter_mut().enumerate() {
-        // Row j of W.
-        let wj: [f32; M] = core::array::from_fn(|r| {
-            w.data
-                .0
-                .get(r)
-                .and_then(|c| c.get(j))
-                .copied()
-                .unwrap_or(0.0)
-        });
-        let rows = ((j + 8) & !7).min(DIM);
-        let Some(upper) = col.get_mut(..rows) else {
-            continue;
-        };
-        // One pass, all `M` products of an entry in registers.
-        for (i, pij) in upper.iter_mut().enumerate() {
-            let mut sum = 0.0f32;
-            for (w_r, a) in w.data.0.iter().zip(wj) {
-                sum += w_r.get(i).copied().unwrap_or(0.0) * a;
+        let wj = row_of(w, j);
+        let n = ((j + 4) / 4).min(DIM / 4);
+        for (k, block) in col.chunks_exact_mut(4).take(n).enumerate() {
+            if let Ok(block) = <&mut [f32; 4]>::try_from(block) {
+                let mut v = *block;
+                for (w_r, a) in w.data.0.iter().zip(wj) {
+                    v = mul_sub4(v, block_of(w_r, k), a);
+                }
+                *block = v;
             }
-            *pij -= sum;
+        }
+        // Rows past the last whole block: only in the last columns.
+        if j >= 4 * n {
+            for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(4 * n) {
+                *pij = entry_minus(*pij, w, i, &wj);
+            }
         }
     }
+    #[cfg(target_arch = "arm")]
+    downdate_blocked(p, w, false);
+}
+
+/// `P <- P - W W^T` on both triangles, bit for bit [`downdate_upper`]
+/// followed by [`mirror_upper_to_lower`]: on hosts exactly that; on
+/// Cortex-M the four-column pass also stores each entry above the diagonal
+/// into its mirror image (contiguous in the column of its row), so no
+/// separate mirror pass runs.
+pub fn downdate_symmetric<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
+    #[cfg(not(target_arch = "arm"))]
+    {
+        downdate_upper(p, w);
+        mirror_upper_to_lower(p);
+    }
+    #[cfg(target_arch = "arm")]
+    downdate_blocked(p, w, true);
+}
+
+/// The Cortex-M downdate, four columns `j..j + 4` at a time over the rows
+/// `0..j + 4` (the diagonal block whole: its lower entries are the same
+/// products as its upper ones, so equal bit for bit), the last three
+/// columns one by one. With `symmetric`, each entry of a row `i < j` is
+/// also stored at `(j.., i)`, and the last columns are done over all rows.
+#[cfg(target_arch = "arm")]
+fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>, symmetric: bool) {
+    let cols = &mut p.data.0;
+    let mut j = 0;
+    while let Some((left, right)) = cols.split_at_mut_checked(j) {
+        if let [c0, c1, c2, c3, ..] = right {
+            let (a0, a1, a2, a3) = (
+                row_of(w, j),
+                row_of(w, j + 1),
+                row_of(w, j + 2),
+                row_of(w, j + 3),
+            );
+            let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
+            for (i, (((p0, p1), p2), p3)) in rows.zip(c3.iter_mut()).enumerate().take(j + 4) {
+                let wi = row_of(w, i);
+                let mut v = [*p0, *p1, *p2, *p3];
+                for (r, wir) in wi.iter().enumerate() {
+                    let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
+                    v = mul_sub4(v, [at(&a0), at(&a1), at(&a2), at(&a3)], *wir);
+                }
+                [*p0, *p1, *p2, *p3] = v;
+                if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(j..j + 4)) {
+                    dst.copy_from_slice(&v);
+                }
+            }
+            j += 4;
+        } else {
+            for (c, col) in right.iter_mut().enumerate() {
+                let jc = j + c;
+                let wj = row_of(w, jc);
+                let rows = if symmetric { DIM } else { jc + 1 };
+                for (i, pij) in col.iter_mut().enumerate().take(rows) {
+                    let v = entry_minus(*pij, w, i, &wj);
+                    *pij = v;
+                    if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(jc)) {
+                        *dst = v;
+                    }
+                }
+            }
+            break;
+        }
+    }
+}
+
+/// Row `i` of `W`.
+#[inline(always)]
+fn row_of<const M: usize>(w: &SMatrix<f32, DIM, M>, i: usize) -> [f32; M] {
+    core::array::from_fn(|r| {
+        w.data
+            .0
+            .get(r)
+            .and_then(|c| c.get(i))
+            .copied()
+            .unwrap_or(0.0)
+    })
+}
+
+/// `p - W[i, 0] wj[0] - W[i, 1] wj[1] - ...`, in that order.
+#[inline(always)]
+fn entry_minus<const M: usize>(p: f32, w: &SMatrix<f32, DIM, M>, i: usize, wj: &[f32; M]) -> f32 {
+    let mut v = p;
+    for (w_r, a) in w.data.0.iter().zip(wj) {
+        v -= w_r.get(i).copied().unwrap_or(0.0) * a;
+    }
+    v
+}
+
+/// Rows `4k..4k + 4` of a column (zeros past its end).
+#[inline(always)]
+pub(crate) fn block_of(col: &[f32; DIM], k: usize) -> [f32; 4] {
+    col.get(4 * k..4 * k + 4)
+        .and_then(|s| <[f32; 4]>::try_from(s).ok())
+        .unwrap_or([0.0; 4])
+}
+
+/// `acc - v a`, lane by lane.
+#[inline(always)]
+pub(crate) fn mul_sub4(acc: [f32; 4], v: [f32; 4], a: f32) -> [f32; 4] {
+    let ([s0, s1, s2, s3], [v0, v1, v2, v3]) = (acc, v);
+    [s0 - v0 * a, s1 - v1 * a, s2 - v2 * a, s3 - v3 * a]
 }

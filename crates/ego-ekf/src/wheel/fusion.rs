@@ -23,11 +23,8 @@ use crate::config::RecoveryConfig;
 use crate::grip::GripParams;
 use crate::recovery::{GatedRun, Verdict};
 use crate::state::{Covariance, NominalState, Vec3};
-use crate::update::gated_update_with;
-use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, wheel_measurement};
-
-// The constraint rows are adjacent (their `P H^T` columns are taken as a block).
-const _: () = assert!(VERTICAL == LATERAL + 1);
+use crate::wheel::model::wheel_rows;
+use crate::wheel::update::{WheelUpdate, update};
 
 /// The forward wheel-velocity innovation of one wheel sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -189,37 +186,13 @@ impl WheelFusion {
         self.clock.accept(rates.t)?;
         self.stopped =
             libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
-        let m = wheel_measurement(x, gyro, rates, grip);
-        if !m.is_finite() {
-            return Err(Reject::NonFinite);
-        }
+        let rows = wheel_rows(x, gyro, rates, grip);
         let speed = 0.5 * (x.radius_left * rates.left + x.radius_right * rates.right);
-        // P H^T once: for the per-row gate and for the update.
-        let pht = m.p_ht(p);
-        let variance = |row: usize| -> Option<f32> {
-            let hp = m.h.row(row) * pht.column(row);
-            Some(hp.sum() + *m.noise.get((row, row))?)
-        };
-        let var_fwd = variance(FORWARD).ok_or(Reject::Degenerate)?;
-        let var_diff = variance(DIFFERENTIAL).ok_or(Reject::Degenerate)?;
-        let forward = m.residual.get(FORWARD).copied().ok_or(Reject::Degenerate)?;
-        let diff = m
-            .residual
-            .get(DIFFERENTIAL)
-            .copied()
-            .ok_or(Reject::Degenerate)?;
-        if !(var_fwd > 0.0 && var_diff > 0.0) {
-            return Err(Reject::Degenerate);
-        }
-        let gate = grip.forward_gate();
-        let gated = forward * forward / var_fwd > gate || diff * diff / var_diff > gate;
-        if gated {
-            let constraints = m.select([LATERAL, VERTICAL]).ok_or(Reject::Degenerate)?;
-            let pht_c = pht.fixed_columns::<2>(LATERAL).into_owned();
-            gated_update_with(x, p, &constraints, &pht_c, None)?;
-        } else {
-            gated_update_with(x, p, &m, &pht, None)?;
-        }
+        let WheelUpdate {
+            forward,
+            forward_var: var_fwd,
+            gated,
+        } = update(x, p, &rows, grip.forward_gate())?;
         let inn = WheelInnovation {
             forward,
             forward_var: var_fwd,

@@ -1,6 +1,8 @@
-//! Wheel odometry: *when to fuse* in [`fusion`], *the maths* in [`model`].
+//! Wheel odometry: *when to fuse* in [`fusion`], *the maths* in [`model`]
+//! (the measurement) and [`update`] (gate and fast update).
 
 pub mod fusion;
 pub mod model;
+pub mod update;
 
 pub use fusion::{WheelFusion, WheelInnovation};

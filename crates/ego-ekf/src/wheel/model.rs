@@ -25,12 +25,12 @@
 //! `s_f^2 / 2` and `2 s_f^2` and are uncorrelated; rows 2 and 3 use the
 //! grip's lateral noise.
 
-use nalgebra::{Matrix3, RowVector2, SMatrix, SVector};
+use nalgebra::{Matrix3, SMatrix, SVector};
 use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
 use crate::grip::GripParams;
-use crate::state::{BG, CL, CR, DIM, NominalState, RAD, RB, TH, V, Vec3};
+use crate::state::{BG, CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3};
 use crate::update::Measurement;
 
 /// Row of the forward component.
@@ -42,7 +42,232 @@ pub const LATERAL: usize = 2;
 /// Row of the vertical constraint.
 pub const VERTICAL: usize = 3;
 
-/// Builds the four-row wheel measurement at the current state.
+/// The error-state columns where a wheel row can be nonzero, in the order
+/// of [`WheelRows::h`]: velocity, attitude, gyroscope bias, both contact
+/// points, body-to-robot rotation, both radii.
+pub const SUPPORT: [usize; SUPPORT_LEN] = [
+    V,
+    V + 1,
+    V + 2,
+    TH,
+    TH + 1,
+    TH + 2,
+    BG,
+    BG + 1,
+    BG + 2,
+    CL,
+    CL + 1,
+    CL + 2,
+    CR,
+    CR + 1,
+    CR + 2,
+    RB,
+    RB + 1,
+    RB + 2,
+    RAD,
+    RAD + 1,
+];
+/// Number of columns in [`SUPPORT`].
+pub const SUPPORT_LEN: usize = 20;
+
+/// Within [`SUPPORT`]: the differential row is zero on velocity and
+/// attitude (the first six), the other rows on nothing but the
+/// constraint rows on the radii (the last two).
+const DIFFERENTIAL_FROM: usize = 6;
+const CONSTRAINT_TO: usize = 18;
+
+/// The four wheel rows with their Jacobian kept on its nonzero columns only
+/// ([`SUPPORT`]) and their (diagonal) noise: what the fast update needs.
+/// [`WheelRows::measurement`] expands it into the dense [`Measurement`].
+/// Built by [`wheel_rows`]; [`WheelRows::p_ht`] uses the factors recorded
+/// there (not `h`'s mid-point rows), so the fields are for reading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelRows {
+    /// Residual `z - h(x_hat)` of the four rows.
+    pub residual: SVector<f32, 4>,
+    /// `h[r][k]` is `dh_r / d(dx)` at column `SUPPORT[k]`.
+    pub h: [[f32; SUPPORT_LEN]; 4],
+    /// The noise variance of each row (the rows are uncorrelated).
+    pub noise: [f32; 4],
+    /// The factors of the mid-point rows (for [`WheelRows::p_ht`]).
+    mid: MidFactors,
+}
+
+/// The mid-point rows (forward, lateral, vertical) of `H` are `R_rb` times
+/// `[R_wb^T, [v_b]x, [p_mid]x, [w]x / 2, [w]x / 2, -[u_mid]x]` on velocity,
+/// attitude, gyro bias, both contact points and `R_rb`: so a row `p` of
+/// `P` (on those columns) maps to `H p = R_rb (R_wb^T p_v + v_b x p_th +
+/// p_mid x p_bg + (w / 2) x (p_cl + p_cr) - u_mid x p_rb)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MidFactors {
+    r_rb: Matrix3<f32>,
+    r_wb_t: Matrix3<f32>,
+    v_b: Vec3,
+    p_mid: Vec3,
+    half_w: Vec3,
+    u_mid: Vec3,
+}
+
+impl WheelRows {
+    /// Whether residual, Jacobian and noise are finite (branch-free).
+    pub fn is_finite(&self) -> bool {
+        let all = |v: &[f32]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        all(self.residual.as_slice()) & self.h.iter().all(|r| all(r)) & all(&self.noise)
+    }
+
+    /// The dense measurement (35 columns, 4x4 noise).
+    pub fn measurement(&self) -> Measurement<4> {
+        let mut h = SMatrix::<f32, 4, DIM>::zeros();
+        for (r, row) in self.h.iter().enumerate() {
+            for (&j, &v) in SUPPORT.iter().zip(row) {
+                if let Some(e) = h.get_mut((r, j)) {
+                    *e = v;
+                }
+            }
+        }
+        Measurement {
+            residual: self.residual,
+            h,
+            noise: SMatrix::<f32, 4, 4>::from_diagonal(&SVector::<f32, 4>::from(self.noise)),
+        }
+    }
+
+    /// `P H^T` for a symmetric `P` from the nonzero columns of `H` only,
+    /// one row `p` of `P` at a time (its 20 entries at [`SUPPORT`], each
+    /// read once): the mid-point rows from their factors ([`MidFactors`]:
+    /// two 3x3 products and four cross products), the differential row
+    /// from its coefficients on gyro bias, contact-point difference,
+    /// `R_rb` and radii. About 75 operations and 20 loads per row of `P`,
+    /// against 70 multiply-adds with 140 loads over `H`'s columns.
+    pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, 4> {
+        let f = &self.mid;
+        let [h_f, d, ..] = &self.h;
+        let [.., rad_f0, rad_f1] = *h_f;
+        let [
+            _,
+            _,
+            _,
+            _,
+            _,
+            _,
+            dg0,
+            dg1,
+            dg2,
+            _,
+            _,
+            _,
+            dc0,
+            dc1,
+            dc2,
+            dr0,
+            dr1,
+            dr2,
+            rad_d0,
+            rad_d1,
+        ] = *d;
+        let (d_bg, d_c, d_rb) = (
+            Vec3::new(dg0, dg1, dg2),
+            Vec3::new(dc0, dc1, dc2),
+            Vec3::new(dr0, dr1, dr2),
+        );
+        let mut out = SMatrix::<f32, DIM, 4>::zeros();
+        let [o0, o1, o2, o3] = &mut out.data.0;
+        let outs = o0.iter_mut().zip(o1.iter_mut()).zip(o2.iter_mut());
+        for (row, (((f0, f1), f2), f3)) in p.data.0.iter().zip(outs.zip(o3.iter_mut())) {
+            // Row i of P is column i (symmetry), entries at the support.
+            let [
+                _,
+                _,
+                _,
+                v0,
+                v1,
+                v2,
+                t0,
+                t1,
+                t2,
+                _,
+                _,
+                _,
+                g0,
+                g1,
+                g2,
+                _,
+                _,
+                _,
+                _,
+                _,
+                _,
+                _,
+                _,
+                _,
+                l0,
+                l1,
+                l2,
+                r0,
+                r1,
+                r2,
+                b0,
+                b1,
+                b2,
+                a0,
+                a1,
+            ] = *row;
+            let (t_bg, t_cl, t_cr, t_rb) = (
+                Vec3::new(g0, g1, g2),
+                Vec3::new(l0, l1, l2),
+                Vec3::new(r0, r1, r2),
+                Vec3::new(b0, b1, b2),
+            );
+            let u = f.r_wb_t * Vec3::new(v0, v1, v2)
+                + f.v_b.cross(&Vec3::new(t0, t1, t2))
+                + f.p_mid.cross(&t_bg)
+                + f.half_w.cross(&(t_cl + t_cr))
+                - f.u_mid.cross(&t_rb);
+            let m = f.r_rb * u;
+            *f0 = m.x + (rad_f0 * a0 + rad_f1 * a1);
+            *f2 = m.y;
+            *f3 = m.z;
+            *f1 = d_bg.dot(&t_bg)
+                + d_c.dot(&(t_cr - t_cl))
+                + d_rb.dot(&t_rb)
+                + (rad_d0 * a0 + rad_d1 * a1);
+        }
+        out
+    }
+
+    /// `S = H P H^T + R` from `pht = P H^T` (its rows at [`SUPPORT`]):
+    /// the upper triangle computed, the lower mirrored.
+    pub fn innovation_covariance(&self, pht: &SMatrix<f32, DIM, 4>) -> SMatrix<f32, 4, 4> {
+        let mut s = SMatrix::<f32, 4, 4>::zeros();
+        for (c, pht_c) in pht.data.0.iter().enumerate() {
+            let rows_c = SUPPORT.map(|j| pht_c.get(j).copied().unwrap_or(0.0));
+            for (r, h_r) in self.h.iter().enumerate().take(c + 1) {
+                let v = h_r.iter().zip(rows_c).map(|(h, a)| h * a).sum::<f32>();
+                if let Some(e) = s.get_mut((r, c)) {
+                    *e = v;
+                }
+            }
+        }
+        for c in 0..4 {
+            for r in (c + 1)..4 {
+                if let Some(v) = s.get((c, r)).copied()
+                    && let Some(e) = s.get_mut((r, c))
+                {
+                    *e = v;
+                }
+            }
+        }
+        for (i, n) in self.noise.iter().enumerate() {
+            if let Some(e) = s.get_mut((i, i)) {
+                *e += n;
+            }
+        }
+        s
+    }
+}
+
+/// Builds the four-row wheel measurement at the current state (dense; see
+/// [`wheel_rows`]).
 ///
 /// `gyro` is the latest bias-corrected angular rate of the body.
 pub fn wheel_measurement(
@@ -51,6 +276,19 @@ pub fn wheel_measurement(
     rates: &WheelRates,
     grip: &GripParams,
 ) -> Measurement<4> {
+    wheel_rows(x, gyro, rates, grip).measurement()
+}
+
+/// Builds the four wheel rows at the current state, Jacobian on
+/// [`SUPPORT`] only.
+///
+/// `gyro` is the latest bias-corrected angular rate of the body.
+pub fn wheel_rows(
+    x: &NominalState,
+    gyro: &Vec3,
+    rates: &WheelRates,
+    grip: &GripParams,
+) -> WheelRows {
     let r_rb = x.q_rb.to_rotation_matrix().into_inner();
     let r_wb = x.q_wb.to_rotation_matrix().into_inner();
     let v_b = r_wb.transpose() * x.v_wb;
@@ -74,25 +312,40 @@ pub fn wheel_measurement(
     let d_v = r_rb * r_wb.transpose();
     let d_th = r_rb * skew(&v_b);
     let d_bg_mid = r_rb * skew(&p_mid);
-    let d_bg_diff = r_rb * skew(&lever);
     let d_c = r_rb * skew(gyro);
     let d_rb_mid = -r_rb * skew(&u_mid);
-    let d_rb_diff = -r_rb * skew(&u_diff);
+    // Row x only of the differential blocks.
+    let r_x = r_rb.row(0);
+    let d_bg_diff = r_x * skew(&lever);
+    let d_rb_diff = -(r_x * skew(&u_diff));
 
-    let mut h = SMatrix::<f32, 4, DIM>::zeros();
     // Rows 0, 2, 3 are rows x, y, z of the mid-point velocity.
-    for (row, axis) in [(FORWARD, 0usize), (LATERAL, 1), (VERTICAL, 2)] {
-        put(&mut h, row, V, &d_v, axis);
-        put(&mut h, row, TH, &d_th, axis);
-        put(&mut h, row, BG, &d_bg_mid, axis);
-        put(&mut h, row, CL, &(d_c * 0.5), axis);
-        put(&mut h, row, CR, &(d_c * 0.5), axis);
-        put(&mut h, row, RB, &d_rb_mid, axis);
+    let mid_row = |axis: usize| -> [f32; SUPPORT_LEN] {
+        let blocks = [
+            d_v.row(axis).into_owned(),
+            d_th.row(axis).into_owned(),
+            d_bg_mid.row(axis).into_owned(),
+            d_c.row(axis) * 0.5,
+            d_c.row(axis) * 0.5,
+            d_rb_mid.row(axis).into_owned(),
+        ];
+        let mut row = [0.0f32; SUPPORT_LEN];
+        for (dst, v) in row.chunks_exact_mut(3).zip(blocks) {
+            dst.copy_from_slice(v.as_slice());
+        }
+        row
+    };
+    let d_c_x = d_c.row(0);
+    let diff_blocks = [d_bg_diff, -d_c_x, d_c_x.into_owned(), d_rb_diff];
+    let mut diff = [0.0f32; SUPPORT_LEN];
+    for (dst, v) in diff
+        .chunks_exact_mut(3)
+        .skip(DIFFERENTIAL_FROM / 3)
+        .zip(diff_blocks)
+    {
+        dst.copy_from_slice(v.as_slice());
     }
-    put(&mut h, DIFFERENTIAL, BG, &d_bg_diff, 0);
-    put(&mut h, DIFFERENTIAL, CL, &(-d_c), 0);
-    put(&mut h, DIFFERENTIAL, CR, &d_c, 0);
-    put(&mut h, DIFFERENTIAL, RB, &d_rb_diff, 0);
+    let mut h = [mid_row(0), diff, mid_row(1), mid_row(2)];
     // Radius columns. With the mean radius and the radius difference,
     // `r_l w_l + r_r w_r = 2 r_mean w_mean + dr dw / 2` and
     // `r_r w_r - r_l w_l = r_mean dw + dr w_mean`. The regressors are
@@ -108,30 +361,43 @@ pub fn wheel_measurement(
     } else {
         (0.5 * (wl + wr), wr - wl)
     };
-    h.fixed_view_mut::<1, 2>(FORWARD, RAD)
-        .copy_from(&RowVector2::new(
-            -0.5 * w_mean + 0.25 * dw,
-            -0.5 * w_mean - 0.25 * dw,
-        ));
-    h.fixed_view_mut::<1, 2>(DIFFERENTIAL, RAD)
-        .copy_from(&RowVector2::new(w_mean - 0.5 * dw, -w_mean - 0.5 * dw));
+    let [f, d, ..] = &mut h;
+    if let Some([a, b]) = f.get_mut(CONSTRAINT_TO..) {
+        (*a, *b) = (-0.5 * w_mean + 0.25 * dw, -0.5 * w_mean - 0.25 * dw);
+    }
+    if let Some([a, b]) = d.get_mut(CONSTRAINT_TO..) {
+        (*a, *b) = (w_mean - 0.5 * dw, -w_mean - 0.5 * dw);
+    }
 
     let sf2 = grip.forward_std() * grip.forward_std();
     let sl2 = grip.lateral_std() * grip.lateral_std();
-    let noise = SMatrix::<f32, 4, 4>::from_diagonal(&SVector::<f32, 4>::new(
-        0.5 * sf2,
-        2.0 * sf2,
-        sl2,
-        sl2,
-    ));
-    Measurement {
+    WheelRows {
         residual: -h_val,
         h,
-        noise,
+        noise: [0.5 * sf2, 2.0 * sf2, sl2, sl2],
+        mid: MidFactors {
+            r_rb,
+            r_wb_t: r_wb.transpose(),
+            v_b,
+            p_mid,
+            half_w: gyro * 0.5,
+            u_mid,
+        },
     }
 }
 
-/// Writes row `axis` of the 3x3 block `d` into row `row`, columns `col..col+3`.
-fn put(h: &mut SMatrix<f32, 4, DIM>, row: usize, col: usize, d: &Matrix3<f32>, axis: usize) {
-    h.fixed_view_mut::<1, 3>(row, col).copy_from(&d.row(axis));
-}
+// The support's blocks: three columns each, radii last.
+const _: () = assert!(
+    V == 3
+        && TH == 6
+        && BG == 12
+        && CL == 24
+        && RAD == 33
+        && DIM == 35
+        && V + 3 == TH
+        && CR == CL + 3
+        && RB == CR + 3
+        && RAD == RB + 3
+        && DIFFERENTIAL_FROM == 6
+        && CONSTRAINT_TO + 2 == SUPPORT_LEN
+);

@@ -1,0 +1,85 @@
+//! The maths of fusing one wheel sample: the four rows of [`super::model`]
+//! with their Jacobian on its 20 nonzero columns, the grip's per-row gate on
+//! the forward and differential rows, and the update.
+//!
+//! Written after PX4 EKF2's generated sparse fusion code: `P H^T` from the
+//! nonzero columns of `H` only ([`WheelRows::p_ht`], no search for the
+//! support at run time), `S = H P H^T + R` from it, and then
+//! [`fuse_prepared`]: the rows' noises are uncorrelated (diagonal `R`), so
+//! the update is the sequence of scalar updates `P <- P - k k^T s` row by
+//! row (Solà 2017, sec. 6.1-6.3; the Cholesky factor of `S` carries the
+//! sequence), with all of their rank-one downdates applied in one pass over
+//! the upper triangle of `P`, then the error reset on the upper triangle and
+//! one mirror: no 35x35 temporary.
+//!
+//! The gate: the forward and the differential rows are each tested with the
+//! grip's 1-DOF chi-square gate on their own variance under the prior `P`;
+//! when either fails, only the lateral and vertical rows are fused.
+
+use nalgebra::SMatrix;
+use vslam_core::Reject;
+
+use crate::state::{Covariance, DIM, NominalState};
+use crate::update::fuse_prepared;
+use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, WheelRows};
+
+// The constraint rows are adjacent (their `P H^T` columns are taken as a
+// block), and the gated rows come first.
+const _: () = assert!(VERTICAL == LATERAL + 1 && FORWARD == 0 && DIFFERENTIAL == 1);
+
+/// What [`update`] did with a sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelUpdate {
+    /// Forward innovation (measured minus predicted), m/s.
+    pub forward: f32,
+    /// Its predicted variance `H P H^T + R` under the prior, (m/s)^2.
+    pub forward_var: f32,
+    /// Whether the forward or the differential row failed the gate (then
+    /// only the lateral and vertical rows were fused).
+    pub gated: bool,
+}
+
+/// Gates and fuses the wheel rows `rows` into `x` and `p` with the 1-DOF
+/// gate `forward_gate` (a chi-square value) on the forward and the
+/// differential rows.
+///
+/// Errors: [`Reject::NonFinite`] for non-finite rows; [`Reject::Degenerate`]
+/// for a non-positive predicted variance or an update that would break `P`.
+/// On any error the state and covariance are unchanged.
+pub fn update(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    rows: &WheelRows,
+    forward_gate: f32,
+) -> Result<WheelUpdate, Reject> {
+    if !rows.is_finite() {
+        return Err(Reject::NonFinite);
+    }
+    let pht = rows.p_ht(p);
+    let s = rows.innovation_covariance(&pht);
+    let [forward, diff, ..] = rows.residual.data.0[0];
+    let var_fwd = s.get((FORWARD, FORWARD)).copied().unwrap_or(0.0);
+    let var_diff = s.get((DIFFERENTIAL, DIFFERENTIAL)).copied().unwrap_or(0.0);
+    if !(var_fwd > 0.0 && var_diff > 0.0) {
+        return Err(Reject::Degenerate);
+    }
+    let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
+    if gated {
+        let pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
+        fuse_prepared(
+            x,
+            p,
+            &pht_c,
+            &s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned(),
+            &rows.residual.fixed_rows::<2>(LATERAL).into_owned(),
+            None,
+        )?;
+    } else {
+        fuse_prepared(x, p, &pht, &s, &rows.residual, None)?;
+    }
+    Ok(WheelUpdate {
+        forward,
+        forward_var: var_fwd,
+        gated,
+    })
+}

@@ -1,0 +1,277 @@
+//! The fast wheel update (`wheel::update`: `P H^T` from the 20 nonzero
+//! columns, the per-row gate, sequential rows applied in one pass over the
+//! upper triangle, the reset on the triangle, one mirror) against the dense
+//! textbook formulas in `f64` (Joseph form, dense reset `G P G^T`), with the
+//! dense `f32` reference (`ego_ekf::reference`) run on the same rows: seeded
+//! proptest cases over random states, positive-definite covariances, gyro
+//! rates, wheel rates and gates. Also the pieces: the triangle reset with the
+//! mirror against the dense reset, and the cheap quaternion exponential
+//! and the Rodrigues rotation of the IMU step against nalgebra's.
+
+use ego_ekf::covariance::{is_positive_definite, reset_dense, reset_upper};
+use ego_ekf::grip::GripParams;
+use ego_ekf::propagate::exp_so3;
+use ego_ekf::reference::gated_update_dense;
+use ego_ekf::state::{
+    CTH, Covariance, DIM, ErrorState, NominalState, Quat, RB, TH, Vec3, rotate_local,
+};
+use ego_ekf::update::{Measurement, mirror_upper_to_lower};
+use ego_ekf::wheel::model::{SUPPORT, wheel_measurement, wheel_rows};
+use ego_ekf::wheel::update::update;
+use nalgebra::{Matrix3, SMatrix};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
+use vslam_core::Timestamp;
+use vslam_core::sensors::WheelRates;
+
+fn config() -> Config {
+    Config {
+        cases: 200,
+        rng_algorithm: RngAlgorithm::ChaCha,
+        rng_seed: RngSeed::Fixed(0x7768_6565_6c66_6173),
+        failure_persistence: Some(Box::new(FileFailurePersistence::Off)),
+        ..Config::default()
+    }
+}
+
+/// splitmix64, uniform in `[-0.5, 0.5)`.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+    }
+    fn vec3(&mut self, scale: f32) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next()) * scale
+    }
+}
+
+/// Symmetric positive definite, standard deviations over three decades,
+/// correlations up to about 0.9.
+fn random_covariance(rng: &mut Rng) -> Covariance {
+    let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| rng.next());
+    let c = a * a.transpose() + Covariance::identity() * 0.3;
+    let d = ErrorState::from_fn(|_, _| 10f32.powf(-3.0 + 3.0 * (rng.next() + 0.5)));
+    let n = c.diagonal().map(|v| 1.0 / v.sqrt());
+    let p = c
+        .component_mul(&(n * n.transpose()))
+        .component_mul(&(d * d.transpose()));
+    (p + p.transpose()) * 0.5
+}
+
+fn random_state(rng: &mut Rng) -> NominalState {
+    let q_wb = Quat::from_scaled_axis(rng.vec3(0.2) + Vec3::new(0.0, 0.0, 6.0 * rng.next()));
+    NominalState {
+        p_wb: rng.vec3(4.0),
+        v_wb: rng.vec3(0.6),
+        q_wb,
+        accel_bias: rng.vec3(0.05),
+        gyro_bias: rng.vec3(0.005),
+        gravity: Vec3::new(0.0, 0.0, -9.81) + rng.vec3(0.02),
+        clone_p_wb: rng.vec3(4.0),
+        clone_q_wb: q_wb * Quat::from_scaled_axis(rng.vec3(0.01)),
+        p_bl: Vec3::new(0.0, 0.115, -0.06) + rng.vec3(0.01),
+        p_br: Vec3::new(0.0, -0.115, -0.06) + rng.vec3(0.01),
+        q_rb: Quat::from_scaled_axis(rng.vec3(0.05)),
+        radius_left: 0.035 + 0.001 * rng.next(),
+        radius_right: 0.035 + 0.001 * rng.next(),
+    }
+}
+
+/// Largest `|a_ij - b_ij| / sqrt(s_i s_j)`, `s` the larger of the prior and
+/// the result variance (and the largest of a rotation block's variances).
+fn normalised_error(a: &Covariance, b: &Covariance, prior: &Covariance) -> f32 {
+    let block_max = |i: usize| {
+        [TH, CTH, RB]
+            .into_iter()
+            .filter(|r| (*r..*r + 3).contains(&i))
+            .flat_map(|r| (r..r + 3).map(|k| prior[(k, k)]))
+            .fold(0.0f32, f32::max)
+    };
+    let s = ErrorState::from_fn(|i, _| prior[(i, i)].max(b[(i, i)]).max(block_max(i)).sqrt());
+    let scale = s * s.transpose();
+    (a - b)
+        .iter()
+        .zip(scale.iter())
+        .map(|(e, s)| e.abs() / s)
+        .fold(0.0, f32::max)
+}
+
+/// The dense update in `f64`: NIS, Joseph form, injection, dense reset.
+fn oracle<const M: usize>(
+    x0: &NominalState,
+    p0: &Covariance,
+    m: &Measurement<M>,
+) -> (NominalState, Covariance, f64) {
+    let p = p0.cast::<f64>();
+    let h = m.h.cast::<f64>();
+    let r = m.noise.cast::<f64>();
+    let y = m.residual.cast::<f64>();
+    let s_inv = (h * p * h.transpose() + r).try_inverse().unwrap();
+    let nis = (y.transpose() * s_inv * y).x;
+    let k = p * h.transpose() * s_inv;
+    let ikh = SMatrix::<f64, DIM, DIM>::identity() - k * h;
+    let joseph = ikh * p * ikh.transpose() + k * r * k.transpose();
+    let dx = k * y;
+    let mut g = SMatrix::<f64, DIM, DIM>::identity();
+    for b in [TH, CTH, RB] {
+        let a = dx.fixed_rows::<3>(b) * 0.5;
+        g.fixed_view_mut::<3, 3>(b, b)
+            .copy_from(&(Matrix3::identity() - a.cross_matrix()));
+    }
+    let mut x = *x0;
+    x.inject(&dx.cast::<f32>());
+    (x, (g * joseph * g.transpose()).cast::<f32>(), nis)
+}
+
+/// Largest difference of two states (additive parts; rotation angles).
+fn state_error(a: &NominalState, b: &NominalState) -> f32 {
+    [
+        (a.p_wb - b.p_wb).amax(),
+        (a.v_wb - b.v_wb).amax(),
+        (a.gyro_bias - b.gyro_bias).amax(),
+        (a.accel_bias - b.accel_bias).amax(),
+        (a.gravity - b.gravity).amax(),
+        (a.clone_p_wb - b.clone_p_wb).amax(),
+        (a.p_bl - b.p_bl).amax(),
+        (a.p_br - b.p_br).amax(),
+        (a.radius_left - b.radius_left).abs(),
+        (a.radius_right - b.radius_right).abs(),
+        a.q_wb.angle_to(&b.q_wb),
+        a.clone_q_wb.angle_to(&b.clone_q_wb),
+        a.q_rb.angle_to(&b.q_rb),
+    ]
+    .into_iter()
+    .fold(0.0, f32::max)
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// The fast wheel update gates like the dense formulas and, fused or
+    /// gated, leaves the state and covariance of the `f64` textbook update.
+    #[test]
+    fn fast_wheel_update_equals_dense_reference(
+        seed in any::<u64>(),
+        left in -12.0f32..12.0,
+        right in -12.0f32..12.0,
+        gate in 0.5f32..30.0,
+    ) {
+        let mut rng = Rng(seed);
+        let x0 = random_state(&mut rng);
+        let p0 = random_covariance(&mut rng);
+        let gyro = rng.vec3(1.0);
+        let rates = WheelRates::new(Timestamp(0), left, right).unwrap();
+        let grip = GripParams::default();
+        let rows = wheel_rows(&x0, &gyro, &rates, &grip);
+        let m = rows.measurement();
+        // The compact rows are the dense measurement, zero off the support.
+        prop_assert_eq!(m, wheel_measurement(&x0, &gyro, &rates, &grip));
+        for j in (0..DIM).filter(|j| !SUPPORT.contains(j)) {
+            prop_assert!(m.h.column(j).iter().all(|v| *v == 0.0));
+        }
+        // The per-row gate, in f64.
+        let s = (m.h.cast::<f64>() * p0.cast::<f64>() * m.h.transpose().cast::<f64>())
+            + m.noise.cast::<f64>();
+        let ratio = |r: usize| f64::from(m.residual[r]).powi(2) / s[(r, r)] / f64::from(gate);
+        // Cases within 0.1 % of the gate may fall either way in f32.
+        prop_assume!((ratio(0) - 1.0).abs() > 1e-3 && (ratio(1) - 1.0).abs() > 1e-3);
+        let gated = ratio(0) > 1.0 || ratio(1) > 1.0;
+        let (mut x, mut p) = (x0, p0);
+        let out = update(&mut x, &mut p, &rows, gate).unwrap();
+        prop_assert_eq!(out.gated, gated);
+        prop_assert!((f64::from(out.forward_var) - s[(0, 0)]).abs() <= 1e-4 * s[(0, 0)]);
+        let (x_true, p_true, nis) = if gated {
+            let c = m.select([2, 3]).unwrap();
+            let (mut xd, mut pd) = (x0, p0);
+            gated_update_dense(&mut xd, &mut pd, &c, None).unwrap();
+            oracle(&x0, &p0, &c)
+        } else {
+            let (mut xd, mut pd) = (x0, p0);
+            gated_update_dense(&mut xd, &mut pd, &m, None).unwrap();
+            oracle(&x0, &p0, &m)
+        };
+        prop_assert!(nis.is_finite());
+        let err = normalised_error(&p, &p_true, &p0);
+        prop_assert!(err < 5e-4, "covariance differs by {} (normalised)", err);
+        prop_assert_eq!(p, p.transpose());
+        let correction = state_error(&x0, &x_true);
+        let dx_err = state_error(&x, &x_true);
+        prop_assert!(dx_err <= 1e-5 + 1e-3 * correction, "state differs by {} (correction {})", dx_err, correction);
+        prop_assert!(x.q_wb.quaternion().norm_squared() - 1.0 < 1e-6);
+    }
+
+    /// The reset on the upper triangle, mirrored, is the dense `G P G^T`
+    /// (whatever the stale lower triangle held).
+    #[test]
+    fn triangle_reset_and_mirror_equal_the_dense_reset(seed in any::<u64>(), angle in 0.0f32..0.2) {
+        let mut rng = Rng(seed);
+        let p0 = random_covariance(&mut rng);
+        let dx = ErrorState::from_fn(|_, _| angle * rng.next());
+        let mut dense = p0;
+        reset_dense(&mut dense, &dx);
+        let mut fast = p0;
+        // Garbage below the diagonal must not matter.
+        for j in 0..DIM {
+            for i in (j + 1)..DIM {
+                fast[(i, j)] = f32::NAN;
+            }
+        }
+        reset_upper(&mut fast, &dx);
+        mirror_upper_to_lower(&mut fast);
+        let err = normalised_error(&fast, &dense, &dense);
+        prop_assert!(err < 1e-5, "reset differs by {}", err);
+        prop_assert_eq!(fast, fast.transpose());
+        prop_assert!(is_positive_definite(&fast));
+    }
+
+    /// The Rodrigues series of the IMU step's rotation is nalgebra's
+    /// `Rotation3::new`, for small and large angles.
+    #[test]
+    fn rotation_exponential_equals_nalgebra(
+        axis in prop::array::uniform3(-1.0f32..1.0),
+        angle in prop_oneof![0.0f32..0.06, 0.0f32..3.0],
+    ) {
+        let phi = Vec3::from(axis) * angle;
+        let fast = exp_so3(&phi);
+        let exact = nalgebra::Rotation3::new(phi).into_inner();
+        prop_assert!((fast - exact).amax() < 2e-7, "differs by {}", (fast - exact).amax());
+    }
+
+    /// The series and the Newton renormalisation give nalgebra's
+    /// `q Exp(dtheta)`, for small and large angles.
+    #[test]
+    fn quaternion_exponential_equals_nalgebra(
+        axis in prop::array::uniform3(-1.0f32..1.0),
+        angle in prop_oneof![0.0f32..0.06, 0.0f32..3.0],
+        start in prop::array::uniform3(-3.0f32..3.0),
+    ) {
+        let dtheta = Vec3::from(axis) * angle;
+        let q = Quat::from_scaled_axis(Vec3::from(start));
+        let fast = rotate_local(&q, &dtheta);
+        let exact = q * Quat::from_scaled_axis(dtheta);
+        prop_assert!(fast.angle_to(&exact) < 1e-6, "{} rad apart", fast.angle_to(&exact));
+        prop_assert!((fast.quaternion().norm() - 1.0).abs() < 1e-6);
+    }
+}
+
+/// A quaternion kept through many small rotations stays unit: the Newton
+/// step corrects the rounding drift of every product.
+#[test]
+fn many_small_rotations_stay_unit() {
+    let mut rng = Rng(9);
+    let mut q = Quat::identity();
+    let mut reference = nalgebra::UnitQuaternion::<f64>::identity();
+    for _ in 0..250_000 {
+        let d = rng.vec3(2e-3);
+        q = rotate_local(&q, &d);
+        reference *= nalgebra::UnitQuaternion::from_scaled_axis(d.cast::<f64>());
+    }
+    assert!((q.quaternion().norm() - 1.0).abs() < 1e-6);
+    assert!(q.cast::<f64>().angle_to(&reference) < 1e-3);
+}
