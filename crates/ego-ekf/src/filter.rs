@@ -176,6 +176,7 @@ impl EgoEkf {
             ),
             flow: FlowFusion::new(
                 config.flow.map_or(1, |f| f.max_dt_ns),
+                config.recovery.flow_max_age_ns,
                 config.recovery.flow_window_ns,
                 config.flow.map_or(0.0, |f| f.base_std),
             ),
@@ -464,19 +465,24 @@ impl EgoEkf {
         verdict
     }
 
-    /// Fuses one optical-flow report; see [`crate::flow`]. Without a
-    /// configured flow sensor every report is [`Reject::NotReady`].
+    /// Fuses one optical-flow report at the filter's time; see
+    /// [`crate::flow`]. Without a configured flow sensor, or before the
+    /// filter starts, every report is [`Reject::NotReady`]; so is one more
+    /// than [`crate::config::RecoveryConfig::flow_max_age_ns`] ahead of the
+    /// filter's time (the IMU silent: the report only closes its interval
+    /// and witnesses the speed for the gap's wheels), and one that far
+    /// behind is [`Reject::OutOfOrder`].
     pub fn fuse_flow(&mut self, sample: &FlowSample) -> Result<FlowFused, Reject> {
         let Some(config) = self.config.flow else {
             return Err(self.flow.refuse(Reject::NotReady));
         };
-        if !self.initialised {
+        let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
             return Err(self.flow.refuse(Reject::NotReady));
-        }
+        };
         let gyro = self.angular_velocity();
         let out = self
             .flow
-            .fuse(&mut self.x, &mut self.p, &gyro, sample, &config);
+            .fuse(&mut self.x, &mut self.p, &gyro, sample, &config, now);
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }

@@ -1,6 +1,21 @@
 //! When to fuse a flow report: time checks (the first report only opens the
 //! interval), the datasheet's validity rule ([`Reject::LowQuality`]),
-//! saturated counts ([`Reject::Saturated`]), the chi-square gate, counters.
+//! saturated counts ([`Reject::Saturated`]), the report's age against the
+//! filter's time, the chi-square gate, counters.
+//!
+//! A report is fused at the filter's (latest IMU) time, as a wheel sample is
+//! (see [`crate::wheel::fusion`]): one whose time lies more than the allowed
+//! age ahead of it measured a velocity the state has not reached (the IMU
+//! lags, went silent or saturated: an IMU gap, which [`crate::gap`] bridges
+//! later) and is refused as [`Reject::NotReady`]; one more than that behind
+//! it, a velocity the state no longer has ([`Reject::OutOfOrder`]). Fusing
+//! such a report against the stale state would pull the velocity, and through
+//! the covariance the pose, towards a motion measured in another place and
+//! heading. The refused report still closes its interval (the counts are
+//! since the previous report, so the next report's `dt` stays one report
+//! interval) and, of valid quality and plausible speed, still feeds the
+//! witness below: the gap's wheel dead reckoning checks spinning wheels
+//! against it ([`crate::gap::odometry`]).
 //!
 //! A filter whose velocity has run away gates every flow and wheel
 //! measurement from then on and never recovers (a lockout). As PX4 EKF2
@@ -17,7 +32,7 @@
 
 use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
-use vslam_core::{Reject, SampleClock, SampleCounts};
+use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
 use crate::config::FlowConfig;
 use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
@@ -42,6 +57,7 @@ pub struct FlowFused {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowFusion {
     clock: SampleClock,
+    max_age_ns: u64,
     counts: SampleCounts,
     gated_run: u16,
     resets: u32,
@@ -49,12 +65,14 @@ pub struct FlowFusion {
 }
 
 impl FlowFusion {
-    /// A fresh status accepting report intervals up to `max_dt_ns`, keeping
-    /// a witness averaged over `window_ns` whose standard deviation is at
-    /// least `floor_std` m/s.
-    pub fn new(max_dt_ns: u64, window_ns: u64, floor_std: f32) -> Self {
+    /// A fresh status accepting report intervals up to `max_dt_ns` and
+    /// reports within `max_age_ns` of the filter's time, keeping a witness
+    /// averaged over `window_ns` whose standard deviation is at least
+    /// `floor_std` m/s.
+    pub fn new(max_dt_ns: u64, max_age_ns: u64, window_ns: u64, floor_std: f32) -> Self {
         FlowFusion {
             clock: SampleClock::new(max_dt_ns),
+            max_age_ns,
             counts: SampleCounts::new(),
             gated_run: 0,
             resets: 0,
@@ -84,7 +102,8 @@ impl FlowFusion {
         reason
     }
 
-    /// Checks, gates and fuses one report.
+    /// Checks, gates and fuses one report at the filter time `now`; see the
+    /// module docs.
     pub fn fuse(
         &mut self,
         x: &mut NominalState,
@@ -92,8 +111,9 @@ impl FlowFusion {
         gyro: &Vec3,
         sample: &FlowSample,
         config: &FlowConfig,
+        now: Timestamp,
     ) -> Result<FlowFused, Reject> {
-        let outcome = self.fuse_inner(x, p, gyro, sample, config);
+        let outcome = self.fuse_inner(x, p, gyro, sample, config, now);
         self.counts.record(outcome.map(|_| ()));
         outcome
     }
@@ -105,6 +125,7 @@ impl FlowFusion {
         gyro: &Vec3,
         sample: &FlowSample,
         config: &FlowConfig,
+        now: Timestamp,
     ) -> Result<FlowFused, Reject> {
         // The counts are since the previous report: the first one only
         // opens the interval.
@@ -126,6 +147,18 @@ impl FlowFusion {
         let plausible = z.norm() <= config.reset_max_speed;
         if plausible {
             self.window.push(sample.t, z, std);
+        }
+        // After the clock and the witness: a refused report still closes
+        // its interval and still witnesses the speed.
+        match sample.t.nanos_since(now) {
+            Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
+            None if now
+                .nanos_since(sample.t)
+                .is_some_and(|d| d > self.max_age_ns) =>
+            {
+                return Err(Reject::OutOfOrder);
+            }
+            _ => {}
         }
         let m = flow_measurement(x, gyro, &z, std);
         match gated_update(x, p, &m, Some(config.gate)) {
