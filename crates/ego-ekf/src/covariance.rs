@@ -207,24 +207,31 @@ pub fn reset_dense(p: &mut Covariance, dx: &ErrorState) {
 /// `P` positive definite in `f32` (an exact copy makes it singular).
 pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude: f32) {
     let cols = &mut p.data.0;
-    // Columns: the clone's columns are the pose's (all rows).
-    let (head, clone) = cols.split_at_mut(CP);
-    let pose = head
-        .iter()
-        .skip(P)
-        .take(3)
-        .chain(head.iter().skip(TH).take(3));
-    for (dst, src) in clone.iter_mut().zip(pose) {
-        *dst = *src;
+    // Columns: the clone's columns are the pose's (all rows): two runs of
+    // three whole columns.
+    if let Some((head, clone)) = cols.split_at_mut_checked(CP)
+        && let Some((clone_p, clone_th)) = clone.split_at_mut_checked(3)
+    {
+        for (dst, src) in [(clone_p, P), (clone_th, TH)] {
+            if let (Some(dst), Some(src)) = (dst.get_mut(..3), head.get(src..src + 3)) {
+                dst.copy_from_slice(src);
+            }
+        }
     }
     // Rows: every column's clone rows are its pose rows (by symmetry, the
     // pose columns' entries); for the clone columns themselves that gives
-    // the pose-pose block.
-    const POSE_INDICES: [usize; 6] = [P, P + 1, P + 2, TH, TH + 1, TH + 2];
+    // the pose-pose block. Two runs of three entries per column.
     for col in cols.iter_mut() {
-        let vals = POSE_INDICES.map(|i| col.get(i).copied().unwrap_or(0.0));
-        for (dst, v) in col.iter_mut().skip(CP).zip(vals) {
-            *dst = v;
+        let Some((head, clone)) = col.split_at_mut_checked(CP) else {
+            continue;
+        };
+        let Some((clone_p, clone_th)) = clone.split_at_mut_checked(3) else {
+            continue;
+        };
+        for (dst, src) in [(clone_p, P), (clone_th, TH)] {
+            if let (Some(dst), Some(src)) = (dst.get_mut(..3), head.get(src..src + 3)) {
+                dst.copy_from_slice(src);
+            }
         }
     }
     let vars = [
@@ -243,7 +250,7 @@ pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude:
 }
 
 // The clone's position and attitude are adjacent.
-const _: () = assert!(CTH == CP + 3);
+const _: () = assert!(CTH == CP + 3 && P + 3 <= CP && TH + 3 <= CP && CTH + 3 <= DIM);
 
 /// Whether `p` is finite, symmetric (relative tolerance `1e-5`) and has a
 /// positive diagonal: the cheap check run after every step in debug builds.

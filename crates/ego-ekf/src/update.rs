@@ -259,6 +259,19 @@ pub fn fuse_prepared<const M: usize>(
     residual: &SVector<f32, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
+    fuse_prepared_owned(x, p, *pht, s, residual, gate)
+}
+
+/// [`fuse_prepared`] taking `P H^T` by value: its storage becomes `W`
+/// (no copy of the `35 x M` block when the caller moves it in).
+pub(crate) fn fuse_prepared_owned<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    mut w: SMatrix<f32, DIM, M>,
+    s: &SMatrix<f32, M, M>,
+    residual: &SVector<f32, M>,
+    gate: Option<f32>,
+) -> Result<UpdateReport, Reject> {
     let (l, inv_diag) = cholesky(s).ok_or(Reject::Degenerate)?;
     let l = &l;
     // z = L^-1 y: NIS = |z|^2.
@@ -273,7 +286,6 @@ pub fn fuse_prepared<const M: usize>(
     }
     // W = P H^T L^-T, so that K S K^T = W W^T and K y = W z: the columns of
     // `P H^T` combined by forward substitution, whole columns at a time.
-    let mut w = *pht;
     forward_substitute(l, &inv_diag, &mut w.data.0);
     // Refuse an update that would leave a non-positive (or non-finite)
     // variance: the diagonal of `W W^T` against that of `P`.

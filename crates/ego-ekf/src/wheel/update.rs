@@ -20,7 +20,7 @@ use nalgebra::SMatrix;
 use vslam_core::Reject;
 
 use crate::state::{Covariance, DIM, NominalState};
-use crate::update::fuse_prepared;
+use crate::update::fuse_prepared_owned;
 use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, WheelRows};
 
 // The constraint rows are adjacent (their `P H^T` columns are taken as a
@@ -66,16 +66,16 @@ pub fn update(
     let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
     if gated {
         let pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
-        fuse_prepared(
+        fuse_prepared_owned(
             x,
             p,
-            &pht_c,
+            pht_c,
             &s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned(),
             &rows.residual.fixed_rows::<2>(LATERAL).into_owned(),
             None,
         )?;
     } else {
-        fuse_prepared(x, p, &pht, &s, &rows.residual, None)?;
+        fuse_prepared_owned(x, p, pht, &s, &rows.residual, None)?;
     }
     Ok(WheelUpdate {
         forward,
