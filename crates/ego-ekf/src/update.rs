@@ -551,6 +551,7 @@ fn entry_minus<const M: usize>(p: f32, w: &SMatrix<f32, DIM, M>, i: usize, wj: &
 }
 
 /// Rows `4k..4k + 4` of a column (zeros past its end).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 pub(crate) fn block_of(col: &[f32; DIM], k: usize) -> [f32; 4] {
     col.get(4 * k..4 * k + 4)
