@@ -31,23 +31,23 @@
 //! vslam-core and host-sim are optimised there too) runs the hour as well:
 //! `cargo test -p traction --test soak -- --ignored --nocapture`.
 //!
-//! # Last result (x86_64, 2026-11-22, test profile, machine shared)
+//! # Last result (x86_64, 2026-11-22, test profile, session 3's final `main`)
 //!
-//! 900,000 IMU steps (3600 s, 57 laps) in 73.6 s wall, 13 s CPU; 3600 checks
-//! passed. Resident set 12,888 KiB after 2 laps, 12,904 KiB at the end;
-//! estimator 42,040 bytes. IMU 899,950 fused (50 during initialisation);
-//! wheel 180,000 seen, 162,152 fused, 17,838 gated; flow 359,943 seen,
-//! 351,114 fused, 8,809 gated; 971 zero-velocity updates. Worst standard
-//! deviations: velocity 0.018 m/s, tilt 0.0046 rad, accel bias 0.045 m/s^2,
+//! 900,000 IMU steps (3600 s, 57 laps) in 11.4 s wall; 3600 checks passed.
+//! Resident set 12,932 KiB after 2 laps, 12,948 KiB at the end; estimator
+//! 42,576 bytes. IMU 899,950 fused (50 during initialisation); wheel 180,000
+//! seen, 165,990 fused, 14,000 gated, 10 not ready; flow 359,943 seen, 354,526
+//! fused, 5,397 gated, 20 not ready; 971 zero-velocity updates. Worst standard
+//! deviations: velocity 0.033 m/s, tilt 0.0046 rad, accel bias 0.045 m/s^2,
 //! gyro bias 0.0012 rad/s, wheel radius 0.0010 m (the prior), contact 0.003 m;
-//! position 0.35 m (peaks in the slip episodes of the early laps; 0.15 /
-//! 0.16 / 0.28 m after the hour), yaw
-//! 0.054 rad. Wheel radii 0.03455..0.03531 m, final 0.03459 / 0.03360 m
-//! (true 0.0357 / 0.03465: both 3 % low, the simulated floors' mean slip
-//! absorbed into the rolling radius; their ratio is right to 0.1 %). Biases
-//! at most 0.0053 rad/s and 0.117 m/s^2. The full covariance failed Cholesky
-//! in 237 of 3600 checks (the pose-clone note in `check`); without the clone it
-//! never did.
+//! position 0.44 m (0.15 / 0.18 / 0.31 m after the hour: the vertical is
+//! unobservable without a camera), yaw 0.054 rad (0.037 after the hour).
+//! Wheel radii 0.03351..0.03639 m, final 0.03455 / 0.03355 m (true 0.0357 /
+//! 0.03465: both 3 % low, the simulated floors' mean slip absorbed into the
+//! rolling radius; their ratio is right to 0.2 %). Biases at most
+//! 0.0058 rad/s and 0.117 m/s^2. The full covariance failed Cholesky in 4 of
+//! 3600 checks (the pose-clone note in `check`); without the clone it never
+//! did.
 
 use ego_ekf::covariance::{is_positive_definite, looks_valid};
 use ego_ekf::state::{BA, BG, CL, CP, CR, Covariance, DIM, RAD_L, RAD_R, TH, V};
@@ -254,11 +254,16 @@ fn check(est: &Estimator<'_>, t: Timestamp, elapsed_s: f64, w: &mut Worst) {
         "covariance not symmetric with a positive diagonal {when}"
     );
     // Positive definite: a Cholesky factorisation of the correlations exists,
-    // for everything but the pose clone. The clone is the pose plus an
-    // absolute 1e-8 on its diagonal (ego-ekf's CLONE_COPY_VAR_*), which f32
-    // cannot resolve once the unobservable position variance passes about
-    // 0.01 m^2: the full matrix then fails Cholesky though it is positive
-    // semi-definite. Those checks are counted and reported, not asserted.
+    // for everything but the pose clone. The clone is the pose plus a copy
+    // variance of 1e-5 of the largest pose variance (ego-ekf's CLONE_COPY_*).
+    // Without a camera the vertical position is unobservable and random-walks
+    // to about 0.3 m std over the hour, while its difference from the clone's
+    // stays tiny; f32 rounding in the updates eats that difference's variance:
+    // in 2-4 of 3600 checks the smallest eigenvalue of the correlation matrix
+    // (in f64) is -1e-8..-2e-7, eigenvector (p_z - clone_z)/sqrt(2). A copy
+    // variance of 1e-4 still fails 2 checks. Those checks are counted and
+    // reported, not asserted; a floor-height pseudo-measurement would remove
+    // the cause (not done).
     assert!(
         definite_without_clone(p),
         "covariance not positive definite (clone excluded) {when}"
