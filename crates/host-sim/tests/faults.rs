@@ -141,11 +141,15 @@ fn check(plan: &str) -> (Run, Recovery) {
         end,
     )
     .unwrap();
+    // One entry per fault of the plan: spoiled samples, expected outcome, observed.
+    let per_fault: Vec<String> = run
+        .results
+        .iter()
+        .map(|r| format!("{} x {} observed {:?}", r.injected, r.expected, r.observed))
+        .collect();
     eprintln!(
-        "{plan:<24} injected {:>4} {:<15} observed {:?}; e_fault({:.1} s) = {:.3} m, e_free = {:.3} m, bound {:.3} m",
-        run.results.iter().map(|r| r.injected).sum::<u32>(),
-        run.results[0].expected,
-        run.results[0].observed,
+        "{plan:<24} {}; e_fault({:.1} s) = {:.3} m, e_free = {:.3} m, bound {:.3} m",
+        per_fault.join(" | "),
         rec.at_ns as f64 * 1e-9,
         rec.faulted,
         rec.free,
