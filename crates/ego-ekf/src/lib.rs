@@ -34,6 +34,7 @@ pub mod flow;
 pub mod gap;
 pub mod grip;
 pub mod init;
+mod lanes;
 pub mod propagate;
 pub mod recovery;
 pub mod reference;

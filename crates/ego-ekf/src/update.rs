@@ -34,6 +34,7 @@ use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
 use crate::covariance::{reset_needed, reset_upper};
+use crate::lanes::Lanes;
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
@@ -326,25 +327,81 @@ pub(crate) fn fuse_prepared_owned<const M: usize>(
     Ok(UpdateReport { nis })
 }
 
-/// Copies the upper triangle of `p` onto the lower one: column `j` below
-/// the diagonal is row `j` of the columns to its right.
+/// Copies the upper triangle of `p` onto the lower one.
+///
+/// In 4x4 blocks: each block above the diagonal is loaded by its four
+/// column pieces (contiguous), transposed in registers and stored as the
+/// four column pieces of its mirror image; the diagonal blocks and the last
+/// three columns (35 = 8 x 4 + 3) entry by entry. The strided
+/// entry-by-entry copy costs about three times as many instructions.
 pub fn mirror_upper_to_lower(p: &mut Covariance) {
-    let cols = &mut p.data.0;
-    // Column c's rows above the diagonal (contiguous) go to row c of the
-    // columns on its left.
-    for c in 1..DIM {
-        let Some((left, right)) = cols.split_at_mut_checked(c) else {
+    let (quads, last) = p.data.0.as_chunks_mut::<4>();
+    for bj in 0..quads.len() {
+        let Some((left, right)) = quads.split_at_mut_checked(bj) else {
+            continue;
+        };
+        let Some(src) = right.first_mut() else {
+            continue;
+        };
+        // Blocks (bi, bj) above the diagonal to (bj, bi).
+        for (bi, dst) in left.iter_mut().enumerate() {
+            let t = transpose4(src.each_ref().map(|c| Lanes::<4>::load(c, 4 * bi).0));
+            for (d, piece) in dst.iter_mut().zip(t) {
+                Lanes(piece).store(d, 4 * bj);
+            }
+        }
+        // The diagonal block: below its diagonal from above it.
+        let a = src.each_ref().map(|c| Lanes::<4>::load(c, 4 * bj).0);
+        let t = transpose4(a);
+        for (r, (d, (mut own, mirrored))) in src.iter_mut().zip(a.into_iter().zip(t)).enumerate() {
+            for (c, (o, m)) in own.iter_mut().zip(mirrored).enumerate() {
+                if c > r {
+                    *o = m;
+                }
+            }
+            Lanes(own).store(d, 4 * bj);
+        }
+    }
+    // The last columns' rows above the diagonal go to the last rows of the
+    // columns on their left.
+    let first_last = 4 * quads.len();
+    for (i, col) in quads.iter_mut().flatten().enumerate() {
+        for (k, src) in last.iter().enumerate() {
+            if let (Some(d), Some(v)) = (col.get_mut(first_last + k), src.get(i)) {
+                *d = *v;
+            }
+        }
+    }
+    for c in 1..last.len() {
+        let Some((left, right)) = last.split_at_mut_checked(c) else {
             continue;
         };
         let Some(src) = right.first() else {
             continue;
         };
-        for (dst_col, v) in left.iter_mut().zip(src.iter()) {
-            if let Some(dst) = dst_col.get_mut(c) {
-                *dst = *v;
+        for (k, dst) in left.iter_mut().enumerate() {
+            if let (Some(d), Some(v)) = (dst.get_mut(first_last + c), src.get(first_last + k)) {
+                *d = *v;
             }
         }
     }
+}
+
+/// The transpose of a 4x4 block given by its columns.
+#[inline(always)]
+fn transpose4(a: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
+    let [
+        [a00, a10, a20, a30],
+        [a01, a11, a21, a31],
+        [a02, a12, a22, a32],
+        [a03, a13, a23, a33],
+    ] = a;
+    [
+        [a00, a01, a02, a03],
+        [a10, a11, a12, a13],
+        [a20, a21, a22, a23],
+        [a30, a31, a32, a33],
+    ]
 }
 
 /// The Cholesky factor `L` (lower triangle; `S = L L^T`) of the symmetric

@@ -30,6 +30,9 @@ use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
 use crate::grip::GripParams;
+use crate::lanes::Lane;
+#[cfg(not(target_arch = "arm"))]
+use crate::lanes::{Lanes, starts};
 use crate::state::{BG, CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3};
 use crate::update::Measurement;
 
@@ -139,42 +142,15 @@ impl WheelRows {
     /// from its coefficients on gyro bias, contact-point difference,
     /// `R_rb` and radii. About 75 operations and 20 loads per row of `P`,
     /// against 70 multiply-adds with 140 loads over `H`'s columns.
+    #[inline(never)]
     pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, 4> {
-        let f = &self.mid;
-        let [h_f, d, ..] = &self.h;
-        let [.., rad_f0, rad_f1] = *h_f;
-        let [
-            _,
-            _,
-            _,
-            _,
-            _,
-            _,
-            dg0,
-            dg1,
-            dg2,
-            _,
-            _,
-            _,
-            dc0,
-            dc1,
-            dc2,
-            dr0,
-            dr1,
-            dr2,
-            rad_d0,
-            rad_d1,
-        ] = *d;
-        let (d_bg, d_c, d_rb) = (
-            Vec3::new(dg0, dg1, dg2),
-            Vec3::new(dc0, dc1, dc2),
-            Vec3::new(dr0, dr1, dr2),
-        );
         let mut out = SMatrix::<f32, DIM, 4>::zeros();
-        let [o0, o1, o2, o3] = &mut out.data.0;
-        let outs = o0.iter_mut().zip(o1.iter_mut()).zip(o2.iter_mut());
-        for (row, (((f0, f1), f2), f3)) in p.data.0.iter().zip(outs.zip(o3.iter_mut())) {
-            // Row i of P is column i (symmetry), entries at the support.
+        #[cfg(not(target_arch = "arm"))]
+        {
+            // By symmetry, rows `at..at + N` of the support's columns are
+            // the entries of rows `at..at + N` of `P` at the support.
+            const N: usize = P_HT_LANES;
+            const STARTS: [usize; DIM.div_ceil(N)] = starts::<N, { DIM.div_ceil(N) }>();
             let [
                 _,
                 _,
@@ -211,28 +187,166 @@ impl WheelRows {
                 b2,
                 a0,
                 a1,
-            ] = *row;
-            let (t_bg, t_cl, t_cr, t_rb) = (
-                Vec3::new(g0, g1, g2),
-                Vec3::new(l0, l1, l2),
-                Vec3::new(r0, r1, r2),
-                Vec3::new(b0, b1, b2),
-            );
-            let u = f.r_wb_t * Vec3::new(v0, v1, v2)
-                + f.v_b.cross(&Vec3::new(t0, t1, t2))
-                + f.p_mid.cross(&t_bg)
-                + f.half_w.cross(&(t_cl + t_cr))
-                - f.u_mid.cross(&t_rb);
-            let m = f.r_rb * u;
-            *f0 = m.x + (rad_f0 * a0 + rad_f1 * a1);
-            *f2 = m.y;
-            *f3 = m.z;
-            *f1 = d_bg.dot(&t_bg)
-                + d_c.dot(&(t_cr - t_cl))
-                + d_rb.dot(&t_rb)
-                + (rad_d0 * a0 + rad_d1 * a1);
+            ] = &p.data.0;
+            for at in STARTS {
+                let l = |c: &[f32; DIM]| Lanes::<N>::load(c, at);
+                let x = [
+                    l(v0),
+                    l(v1),
+                    l(v2),
+                    l(t0),
+                    l(t1),
+                    l(t2),
+                    l(g0),
+                    l(g1),
+                    l(g2),
+                    l(l0),
+                    l(l1),
+                    l(l2),
+                    l(r0),
+                    l(r1),
+                    l(r2),
+                    l(b0),
+                    l(b1),
+                    l(b2),
+                    l(a0),
+                    l(a1),
+                ];
+                for (o, v) in out.data.0.iter_mut().zip(self.rows_of_p(x)) {
+                    v.store(o, at);
+                }
+            }
+        }
+        #[cfg(target_arch = "arm")]
+        {
+            let [o0, o1, o2, o3] = &mut out.data.0;
+            let outs = o0.iter_mut().zip(o1.iter_mut()).zip(o2.iter_mut());
+            for (col, (((f0, f1), f2), f3)) in p.data.0.iter().zip(outs.zip(o3.iter_mut())) {
+                // Row i of P is column i (symmetry), entries at the support.
+                let [
+                    _,
+                    _,
+                    _,
+                    v0,
+                    v1,
+                    v2,
+                    t0,
+                    t1,
+                    t2,
+                    _,
+                    _,
+                    _,
+                    g0,
+                    g1,
+                    g2,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    l0,
+                    l1,
+                    l2,
+                    r0,
+                    r1,
+                    r2,
+                    b0,
+                    b1,
+                    b2,
+                    a0,
+                    a1,
+                ] = *col;
+                let x = [
+                    v0, v1, v2, t0, t1, t2, g0, g1, g2, l0, l1, l2, r0, r1, r2, b0, b1, b2, a0, a1,
+                ];
+                [*f0, *f1, *f2, *f3] = self.rows_of_p(x);
+            }
         }
         out
+    }
+
+    /// `H p` for the entries `x` of a row `p` of `P` at [`SUPPORT`]: the
+    /// mid-point rows from their factors, the differential row from its
+    /// coefficients. Over [`Lane`]s, so one row (`f32`) or a block of rows
+    /// gives the same bits.
+    #[inline(always)]
+    fn rows_of_p<T: Lane>(&self, x: [T; SUPPORT_LEN]) -> [T; 4] {
+        let f = &self.mid;
+        let [h_f, d, ..] = &self.h;
+        let [.., rad_f0, rad_f1] = *h_f;
+        let [
+            _,
+            _,
+            _,
+            _,
+            _,
+            _,
+            dg0,
+            dg1,
+            dg2,
+            _,
+            _,
+            _,
+            dc0,
+            dc1,
+            dc2,
+            dr0,
+            dr1,
+            dr2,
+            rad_d0,
+            rad_d1,
+        ] = *d;
+        let [
+            v0,
+            v1,
+            v2,
+            t0,
+            t1,
+            t2,
+            g0,
+            g1,
+            g2,
+            l0,
+            l1,
+            l2,
+            r0,
+            r1,
+            r2,
+            b0,
+            b1,
+            b2,
+            a0,
+            a1,
+        ] = x;
+        let (t_bg, t_cl, t_cr, t_rb) = ([g0, g1, g2], [l0, l1, l2], [r0, r1, r2], [b0, b1, b2]);
+        // The order of nalgebra's operators, so that the results do not
+        // depend on the form: `R_wb^T v + v_b x t + p_mid x g
+        // + (w / 2) x (l + r) - u_mid x b`, then `R_rb` times it.
+        let u = sub3(
+            add3(
+                add3(
+                    add3(
+                        mat_vec(&f.r_wb_t, [v0, v1, v2]),
+                        cross(&f.v_b, [t0, t1, t2]),
+                    ),
+                    cross(&f.p_mid, t_bg),
+                ),
+                cross(&f.half_w, add3(t_cl, t_cr)),
+            ),
+            cross(&f.u_mid, t_rb),
+        );
+        let [mx, my, mz] = mat_vec(&f.r_rb, u);
+        let c = T::from;
+        let forward = mx + (c(rad_f0) * a0 + c(rad_f1) * a1);
+        let differential = dot([dg0, dg1, dg2], t_bg)
+            + dot([dc0, dc1, dc2], sub3(t_cr, t_cl))
+            + dot([dr0, dr1, dr2], t_rb)
+            + (c(rad_d0) * a0 + c(rad_d1) * a1);
+        [forward, differential, my, mz]
     }
 
     /// `S = H P H^T + R` from `pht = P H^T` (its rows at [`SUPPORT`]):
@@ -386,6 +500,41 @@ pub fn wheel_rows(
     }
 }
 
+/// Lanes per block of rows in [`WheelRows::p_ht`] on hosts.
+#[cfg(not(target_arch = "arm"))]
+const P_HT_LANES: usize = 4;
+
+/// `m v` in nalgebra's order: `(m0 v0 + m1 v1) + m2 v2` by columns.
+#[inline(always)]
+fn mat_vec<T: Lane>(m: &Matrix3<f32>, [v0, v1, v2]: [T; 3]) -> [T; 3] {
+    let [[m00, m10, m20], [m01, m11, m21], [m02, m12, m22]] = m.data.0;
+    let row = |a: f32, b: f32, c: f32| T::from(a) * v0 + T::from(b) * v1 + T::from(c) * v2;
+    [row(m00, m01, m02), row(m10, m11, m12), row(m20, m21, m22)]
+}
+
+/// `a x b` for a constant `a`, in nalgebra's order.
+#[inline(always)]
+fn cross<T: Lane>(a: &Vec3, [bx, by, bz]: [T; 3]) -> [T; 3] {
+    let (ax, ay, az) = (T::from(a.x), T::from(a.y), T::from(a.z));
+    [ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx]
+}
+
+/// `a . b` for a constant `a`, in nalgebra's order.
+#[inline(always)]
+fn dot<T: Lane>([a0, a1, a2]: [f32; 3], [b0, b1, b2]: [T; 3]) -> T {
+    T::from(a0) * b0 + T::from(a1) * b1 + T::from(a2) * b2
+}
+
+#[inline(always)]
+fn add3<T: Lane>([a0, a1, a2]: [T; 3], [b0, b1, b2]: [T; 3]) -> [T; 3] {
+    [a0 + b0, a1 + b1, a2 + b2]
+}
+
+#[inline(always)]
+fn sub3<T: Lane>([a0, a1, a2]: [T; 3], [b0, b1, b2]: [T; 3]) -> [T; 3] {
+    [a0 - b0, a1 - b1, a2 - b2]
+}
+
 // The support's blocks: three columns each, radii last.
 const _: () = assert!(
     V == 3
@@ -401,3 +550,159 @@ const _: () = assert!(
         && DIFFERENTIAL_FROM == 6
         && CONSTRAINT_TO + 2 == SUPPORT_LEN
 );
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::Quat;
+    use vslam_core::Timestamp;
+
+    /// xorshift in [-0.5, 0.5).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        }
+        fn vec3(&mut self, scale: f32) -> Vec3 {
+            Vec3::new(self.next(), self.next(), self.next()) * scale
+        }
+    }
+
+    impl WheelRows {
+        /// The row-by-row form with nalgebra's operators (before the
+        /// lanes): the reference for the bits.
+        fn p_ht_nalgebra(&self, p: &Covariance) -> SMatrix<f32, DIM, 4> {
+            let f = &self.mid;
+            let [h_f, d, ..] = &self.h;
+            let [.., rad_f0, rad_f1] = *h_f;
+            let [
+                _,
+                _,
+                _,
+                _,
+                _,
+                _,
+                dg0,
+                dg1,
+                dg2,
+                _,
+                _,
+                _,
+                dc0,
+                dc1,
+                dc2,
+                dr0,
+                dr1,
+                dr2,
+                rad_d0,
+                rad_d1,
+            ] = *d;
+            let (d_bg, d_c, d_rb) = (
+                Vec3::new(dg0, dg1, dg2),
+                Vec3::new(dc0, dc1, dc2),
+                Vec3::new(dr0, dr1, dr2),
+            );
+            let mut out = SMatrix::<f32, DIM, 4>::zeros();
+            let [o0, o1, o2, o3] = &mut out.data.0;
+            let outs = o0.iter_mut().zip(o1.iter_mut()).zip(o2.iter_mut());
+            for (row, (((f0, f1), f2), f3)) in p.data.0.iter().zip(outs.zip(o3.iter_mut())) {
+                // Row i of P is column i (symmetry), entries at the support.
+                let [
+                    _,
+                    _,
+                    _,
+                    v0,
+                    v1,
+                    v2,
+                    t0,
+                    t1,
+                    t2,
+                    _,
+                    _,
+                    _,
+                    g0,
+                    g1,
+                    g2,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    _,
+                    l0,
+                    l1,
+                    l2,
+                    r0,
+                    r1,
+                    r2,
+                    b0,
+                    b1,
+                    b2,
+                    a0,
+                    a1,
+                ] = *row;
+                let (t_bg, t_cl, t_cr, t_rb) = (
+                    Vec3::new(g0, g1, g2),
+                    Vec3::new(l0, l1, l2),
+                    Vec3::new(r0, r1, r2),
+                    Vec3::new(b0, b1, b2),
+                );
+                let u = f.r_wb_t * Vec3::new(v0, v1, v2)
+                    + f.v_b.cross(&Vec3::new(t0, t1, t2))
+                    + f.p_mid.cross(&t_bg)
+                    + f.half_w.cross(&(t_cl + t_cr))
+                    - f.u_mid.cross(&t_rb);
+                let m = f.r_rb * u;
+                *f0 = m.x + (rad_f0 * a0 + rad_f1 * a1);
+                *f2 = m.y;
+                *f3 = m.z;
+                *f1 = d_bg.dot(&t_bg)
+                    + d_c.dot(&(t_cr - t_cl))
+                    + d_rb.dot(&t_rb)
+                    + (rad_d0 * a0 + rad_d1 * a1);
+            }
+            out
+        }
+    }
+
+    /// The block-of-rows form gives the bits of the row-by-row form with
+    /// nalgebra's operators, on exactly symmetric covariances.
+    #[test]
+    fn p_ht_blocks_equal_the_nalgebra_rows_bit_for_bit() {
+        let mut rng = Rng(0x5eed_1234_abcd_0001);
+        for _ in 0..200 {
+            let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| rng.next());
+            let p = a * a.transpose() + Covariance::identity() * 0.1;
+            let p = (p + p.transpose()) * 0.5;
+            let q_wb = Quat::from_scaled_axis(rng.vec3(6.0));
+            let x = NominalState {
+                p_wb: rng.vec3(4.0),
+                v_wb: rng.vec3(1.0),
+                q_wb,
+                accel_bias: Vec3::zeros(),
+                gyro_bias: Vec3::zeros(),
+                gravity: Vec3::new(0.0, 0.0, -9.81),
+                clone_p_wb: Vec3::zeros(),
+                clone_q_wb: q_wb,
+                p_bl: Vec3::new(0.0, 0.115, -0.06) + rng.vec3(0.02),
+                p_br: Vec3::new(0.0, -0.115, -0.06) + rng.vec3(0.02),
+                q_rb: Quat::from_scaled_axis(rng.vec3(0.1)),
+                radius_left: 0.035 + 0.002 * rng.next(),
+                radius_right: 0.035 + 0.002 * rng.next(),
+            };
+            let rates = WheelRates::new(Timestamp(0), 20.0 * rng.next(), 20.0 * rng.next())
+                .unwrap_or_else(|_| unreachable!());
+            let rows = wheel_rows(&x, &rng.vec3(2.0), &rates, &GripParams::default());
+            let (fast, slow) = (rows.p_ht(&p), rows.p_ht_nalgebra(&p));
+            for (f, s) in fast.iter().zip(slow.iter()) {
+                assert_eq!(f.to_bits(), s.to_bits(), "{fast} vs {slow}");
+            }
+        }
+    }
+}
