@@ -34,7 +34,6 @@ use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
 use crate::covariance::{reset_needed, reset_upper};
-use crate::lanes::Lanes;
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
@@ -335,6 +334,7 @@ pub(crate) fn fuse_prepared_owned<const M: usize>(
 /// three columns (35 = 8 x 4 + 3) entry by entry. The strided
 /// entry-by-entry copy costs about three times as many instructions.
 pub fn mirror_upper_to_lower(p: &mut Covariance) {
+    const QUADS: usize = DIM / 4;
     let (quads, last) = p.data.0.as_chunks_mut::<4>();
     for bj in 0..quads.len() {
         let Some((left, right)) = quads.split_at_mut_checked(bj) else {
@@ -344,44 +344,62 @@ pub fn mirror_upper_to_lower(p: &mut Covariance) {
             continue;
         };
         // Blocks (bi, bj) above the diagonal to (bj, bi).
-        for (bi, dst) in left.iter_mut().enumerate() {
-            let t = transpose4(src.each_ref().map(|c| Lanes::<4>::load(c, 4 * bi).0));
+        let [c0, c1, c2, c3] = src.each_ref().map(|c| c.as_chunks::<4>().0);
+        for ((((dst, b0), b1), b2), b3) in left.iter_mut().zip(c0).zip(c1).zip(c2).zip(c3) {
+            let t = transpose4([*b0, *b1, *b2, *b3]);
             for (d, piece) in dst.iter_mut().zip(t) {
-                Lanes(piece).store(d, 4 * bj);
+                if let Some(x) = d.as_chunks_mut::<4>().0.get_mut(bj) {
+                    *x = piece;
+                }
             }
         }
         // The diagonal block: below its diagonal from above it.
-        let a = src.each_ref().map(|c| Lanes::<4>::load(c, 4 * bj).0);
-        let t = transpose4(a);
-        for (r, (d, (mut own, mirrored))) in src.iter_mut().zip(a.into_iter().zip(t)).enumerate() {
-            for (c, (o, m)) in own.iter_mut().zip(mirrored).enumerate() {
-                if c > r {
-                    *o = m;
+        let a = src
+            .each_ref()
+            .map(|c| c.as_chunks::<4>().0.get(bj).copied());
+        if let [Some(a0), Some(a1), Some(a2), Some(a3)] = a {
+            let a = [a0, a1, a2, a3];
+            let t = transpose4(a);
+            for (r, (d, (mut own, mirrored))) in
+                src.iter_mut().zip(a.into_iter().zip(t)).enumerate()
+            {
+                for (c, (o, m)) in own.iter_mut().zip(mirrored).enumerate() {
+                    if c > r {
+                        *o = m;
+                    }
+                }
+                if let Some(x) = d.as_chunks_mut::<4>().0.get_mut(bj) {
+                    *x = own;
                 }
             }
-            Lanes(own).store(d, 4 * bj);
         }
     }
     // The last columns' rows above the diagonal go to the last rows of the
-    // columns on their left.
-    let first_last = 4 * quads.len();
-    for (i, col) in quads.iter_mut().flatten().enumerate() {
-        for (k, src) in last.iter().enumerate() {
-            if let (Some(d), Some(v)) = (col.get_mut(first_last + k), src.get(i)) {
-                *d = *v;
+    // columns on their left, four rows (one column quad) at a time.
+    const _: () = assert!(DIM - 4 * QUADS == 3);
+    if let [l0, l1, l2] = last {
+        let blocks = l0.as_chunks::<4>().0.iter();
+        let blocks = blocks.zip(l1.as_chunks::<4>().0).zip(l2.as_chunks::<4>().0);
+        for (dst, ((b0, b1), b2)) in quads.iter_mut().zip(blocks) {
+            for (m, d) in dst.iter_mut().enumerate() {
+                let pick = |b: &[f32; 4]| b.get(m).copied().unwrap_or(0.0);
+                if let Some(tail) = d.as_chunks_mut::<4>().1.first_chunk_mut::<3>() {
+                    *tail = [pick(b0), pick(b1), pick(b2)];
+                }
             }
         }
-    }
-    for c in 1..last.len() {
-        let Some((left, right)) = last.split_at_mut_checked(c) else {
-            continue;
-        };
-        let Some(src) = right.first() else {
-            continue;
-        };
-        for (k, dst) in left.iter_mut().enumerate() {
-            if let (Some(d), Some(v)) = (dst.get_mut(first_last + c), src.get(first_last + k)) {
-                *d = *v;
+        // The corner: below its diagonal from above it.
+        let first = 4 * QUADS;
+        if let (Some(v10), Some(v20), Some(v21)) = (
+            l1.get(first).copied(),
+            l2.get(first).copied(),
+            l2.get(first + 1).copied(),
+        ) {
+            if let Some([_, d1, d2]) = l0.get_mut(first..).and_then(|s| s.first_chunk_mut::<3>()) {
+                (*d1, *d2) = (v10, v20);
+            }
+            if let Some(d) = l1.get_mut(first + 2) {
+                *d = v21;
             }
         }
     }

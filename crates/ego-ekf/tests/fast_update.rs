@@ -253,3 +253,20 @@ fn triangle_downdate_and_mirror_equal_the_full_downdate() {
         assert_eq!(triangle, full);
     }
 }
+
+/// The mirror (in 4x4 blocks, the last three columns apart) copies every
+/// entry above the diagonal below it and changes nothing above it,
+/// whatever was below.
+#[test]
+fn mirror_copies_every_upper_entry_and_keeps_the_upper_triangle() {
+    let upper = SMatrix::<f32, DIM, DIM>::from_fn(|i, j| (1000 * i + j) as f32);
+    let mut p =
+        SMatrix::<f32, DIM, DIM>::from_fn(|i, j| if i <= j { upper[(i, j)] } else { f32::NAN });
+    mirror_upper_to_lower(&mut p);
+    for j in 0..DIM {
+        for i in 0..DIM {
+            let expected = if i <= j { upper[(i, j)] } else { upper[(j, i)] };
+            assert_eq!(p[(i, j)], expected, "entry ({i}, {j})");
+        }
+    }
+}
