@@ -10,6 +10,7 @@
 
 use core::ops::{Add, Mul, Sub};
 
+#[cfg(not(target_arch = "arm"))]
 use crate::state::DIM;
 
 /// A value the row formulas compute with: `f32` or [`Lanes`], with
@@ -21,12 +22,16 @@ pub(crate) trait Lane:
 
 impl Lane for f32 {}
 
-/// `N` entries of a column (consecutive rows), computed lane by lane.
+/// `N` entries of a column (consecutive rows), computed lane by lane
+/// (hosts only: Cortex-M has no vector unit).
+#[cfg(not(target_arch = "arm"))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Lanes<const N: usize>(pub [f32; N]);
 
+#[cfg(not(target_arch = "arm"))]
 impl<const N: usize> Lane for Lanes<N> {}
 
+#[cfg(not(target_arch = "arm"))]
 impl<const N: usize> From<f32> for Lanes<N> {
     #[inline(always)]
     fn from(v: f32) -> Self {
@@ -34,6 +39,7 @@ impl<const N: usize> From<f32> for Lanes<N> {
     }
 }
 
+#[cfg(not(target_arch = "arm"))]
 impl<const N: usize> Lanes<N> {
     /// Rows `at..at + N` of `col` (zeros if they do not fit: the callers'
     /// starts always fit, see [`starts`]).
@@ -58,6 +64,7 @@ impl<const N: usize> Lanes<N> {
 
 macro_rules! lane_op {
     ($trait:ident, $method:ident, $op:tt) => {
+        #[cfg(not(target_arch = "arm"))]
         impl<const N: usize> $trait for Lanes<N> {
             type Output = Self;
             #[inline(always)]
