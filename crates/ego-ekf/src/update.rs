@@ -34,6 +34,8 @@ use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
 use crate::covariance::{reset_needed, reset_upper};
+#[cfg(not(target_arch = "arm"))]
+use crate::lanes::Lanes;
 use crate::state::{Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
@@ -510,32 +512,60 @@ pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
 /// two agree bit for bit, and the host with the firmware). On hosts with
 /// vector units each column's rows are taken in blocks of four (rounded up
 /// past the diagonal: the few lower-triangle entries this also updates are
-/// overwritten by the mirror); on Cortex-M (`target_arch = "arm"`, scalar)
+/// overwritten by the mirror), with one unrolled copy per count of blocks;
+/// on Cortex-M (`target_arch = "arm"`, scalar)
 /// four columns at a time, so that their rows of `W` stay in registers and
 /// each row of `W` is loaded once per four entries.
 pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
     #[cfg(not(target_arch = "arm"))]
-    for (j, col) in p.data.0.iter_mut().enumerate() {
-        let wj = row_of(w, j);
-        let n = ((j + 4) / 4).min(DIM / 4);
-        for (k, block) in col.chunks_exact_mut(4).take(n).enumerate() {
-            if let Ok(block) = <&mut [f32; 4]>::try_from(block) {
-                let mut v = *block;
-                for (w_r, a) in w.data.0.iter().zip(wj) {
-                    v = mul_sub4(v, block_of(w_r, k), a);
+    {
+        // W's rows in blocks of four, block by block: `wb[k][r]` holds
+        // rows `4k..4k + 4` of column `r`.
+        let wb: [[Lanes<4>; M]; DIM / 4] =
+            core::array::from_fn(|k| w.data.0.each_ref().map(|c| Lanes::load(c, 4 * k)));
+        for (j, col) in p.data.0.iter_mut().enumerate() {
+            let wj = row_of(w, j);
+            // The blocks down to the one holding the diagonal, a count
+            // known at compile time in each arm (unrolled, unchecked).
+            match j / 4 {
+                0 => downdate_blocks::<1, M>(col, &wb, wj),
+                1 => downdate_blocks::<2, M>(col, &wb, wj),
+                2 => downdate_blocks::<3, M>(col, &wb, wj),
+                3 => downdate_blocks::<4, M>(col, &wb, wj),
+                4 => downdate_blocks::<5, M>(col, &wb, wj),
+                5 => downdate_blocks::<6, M>(col, &wb, wj),
+                6 => downdate_blocks::<7, M>(col, &wb, wj),
+                _ => {
+                    downdate_blocks::<8, M>(col, &wb, wj);
+                    // Rows past the last whole block: only in the last columns.
+                    let first = 4 * (DIM / 4);
+                    for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(first) {
+                        *pij = entry_minus(*pij, w, i, &wj);
+                    }
                 }
-                *block = v;
-            }
-        }
-        // Rows past the last whole block: only in the last columns.
-        if j >= 4 * n {
-            for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(4 * n) {
-                *pij = entry_minus(*pij, w, i, &wj);
             }
         }
     }
     #[cfg(target_arch = "arm")]
     downdate_blocked(p, w, false);
+}
+
+/// The first `B` blocks of four rows of a column of [`downdate_upper`],
+/// given `W` in blocks (`wb`) and the column's row of `W` (`wj`).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn downdate_blocks<const B: usize, const M: usize>(
+    col: &mut [f32; DIM],
+    wb: &[[Lanes<4>; M]; DIM / 4],
+    wj: [f32; M],
+) {
+    for (block, wk) in col.as_chunks_mut::<4>().0.iter_mut().zip(wb).take(B) {
+        let mut v = Lanes(*block);
+        for (w_r, a) in wk.iter().zip(wj) {
+            v = v - *w_r * Lanes::from(a);
+        }
+        *block = v.0;
+    }
 }
 
 /// `P <- P - W W^T` on both triangles, bit for bit [`downdate_upper`]
@@ -625,18 +655,10 @@ fn entry_minus<const M: usize>(p: f32, w: &SMatrix<f32, DIM, M>, i: usize, wj: &
     v
 }
 
-/// Rows `4k..4k + 4` of a column (zeros past its end).
-#[cfg(not(target_arch = "arm"))]
-#[inline(always)]
-pub(crate) fn block_of(col: &[f32; DIM], k: usize) -> [f32; 4] {
-    col.get(4 * k..4 * k + 4)
-        .and_then(|s| <[f32; 4]>::try_from(s).ok())
-        .unwrap_or([0.0; 4])
-}
-
 /// `acc - v a`, lane by lane.
+#[cfg(target_arch = "arm")]
 #[inline(always)]
-pub(crate) fn mul_sub4(acc: [f32; 4], v: [f32; 4], a: f32) -> [f32; 4] {
+fn mul_sub4(acc: [f32; 4], v: [f32; 4], a: f32) -> [f32; 4] {
     let ([s0, s1, s2, s3], [v0, v1, v2, v3]) = (acc, v);
     [s0 - v0 * a, s1 - v1 * a, s2 - v2 * a, s3 - v3 * a]
 }
