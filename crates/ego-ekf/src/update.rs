@@ -539,8 +539,10 @@ pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, 
                     downdate_blocks::<8, M>(col, &wb, wj);
                     // Rows past the last whole block: only in the last columns.
                     let first = 4 * (DIM / 4);
-                    for (i, pij) in col.iter_mut().enumerate().take(j + 1).skip(first) {
-                        *pij = entry_minus(*pij, w, i, &wj);
+                    if let Some(rows) = col.get_mut(first..=j) {
+                        for (t, pij) in rows.iter_mut().enumerate() {
+                            *pij = entry_minus(*pij, w, first + t, &wj);
+                        }
                     }
                 }
             }
@@ -559,7 +561,10 @@ fn downdate_blocks<const B: usize, const M: usize>(
     wb: &[[Lanes<4>; M]; DIM / 4],
     wj: [f32; M],
 ) {
-    for (block, wk) in col.as_chunks_mut::<4>().0.iter_mut().zip(wb).take(B) {
+    let Some(blocks) = col.as_chunks_mut::<4>().0.get_mut(..B) else {
+        return;
+    };
+    for (block, wk) in blocks.iter_mut().zip(wb) {
         let mut v = Lanes(*block);
         for (w_r, a) in wk.iter().zip(wj) {
             v = v - *w_r * Lanes::from(a);
