@@ -148,6 +148,19 @@ fn benches(c: &mut Criterion) {
             BATCH,
         )
     });
+    // The 3-D wheel-velocity update: the forward, lateral and
+    // vertical rows without the differential (yaw-rate) row, NIS-gated.
+    let m3 = m.select([0, 2, 3]).unwrap();
+    c.bench_function(
+        "ekf/update maths (3 rows: forward, lateral, vertical; structured, gated)",
+        |b| {
+            b.iter_batched_ref(
+                || (x, p0),
+                |(x, p)| gated_update(black_box(x), black_box(p), black_box(&m3), Some(100.0)),
+                BATCH,
+            )
+        },
+    );
     c.bench_function("ekf/update maths (4 rows, dense Joseph reference)", |b| {
         b.iter_batched_ref(
             || (x, p0),
