@@ -50,6 +50,15 @@ pub fn load_gray(path: &Path) -> Result<GrayImage, CliError> {
         }
     };
     let line = info.line_size;
+    if channels == 1 && line == w && w > 0 && h > 0 && buf.len() >= w * h {
+        // 8-bit gray, rows packed: the decoder's buffer is the image.
+        buf.truncate(w * h);
+        return Ok(GrayImage {
+            width: w,
+            height: h,
+            data: buf,
+        });
+    }
     let mut data = Vec::with_capacity(w * h);
     for row in buf.chunks(line).take(h) {
         for px in row.chunks_exact(channels).take(w) {
