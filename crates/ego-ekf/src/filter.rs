@@ -386,12 +386,14 @@ impl EgoEkf {
         };
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
-        // too far ahead of the filter's time.
-        let geometry = wheel_geometry(&self.x, &self.grip);
-        let witness = self.speed_witness(rates.t);
-        let _ = self
-            .gap_odometry
-            .offer(now, rates, &geometry, witness, &self.config);
+        // too far ahead of the filter's time. Geometry and witness only then.
+        if GapOdometry::during_gap(now, rates.t, &self.config) {
+            let geometry = wheel_geometry(&self.x, &self.grip);
+            let witness = self.speed_witness(rates.t);
+            let _ = self
+                .gap_odometry
+                .offer(now, rates, &geometry, witness, &self.config);
+        }
         let gyro = self.angular_velocity();
         let mut out = self.wheel.fuse(
             &mut self.x,
