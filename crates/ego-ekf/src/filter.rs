@@ -13,7 +13,8 @@ use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
 use crate::propagate::{
-    Transition, process_noise, propagate_covariance, propagate_nominal, vertical_deviation,
+    Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
+    propagate_nominal, vertical_deviation,
 };
 use crate::recovery::{Evidence, RecoveryCounts, ResetSource, Verdict, decide};
 use crate::state::{
@@ -330,9 +331,16 @@ impl EgoEkf {
         let f = Transition::new(&r_wb, &accel, &gyro, dt);
         let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
-        propagate_covariance(&mut self.p, &f, &q);
+        if self.clone_due {
+            propagate_covariance_clone_decoupled(&mut self.p, &f, &q);
+        } else {
+            propagate_covariance(&mut self.p, &f, &q);
+        }
 
-        if !still {
+        if !still && !self.clone_due {
+            // Nothing reads the clone until the next still step copies the
+            // pose over it: decoupled, it costs nothing in the meantime.
+            covariance::decouple_clone(&mut self.p);
             self.clone_due = true;
         } else if self.still.update_due(&zc) {
             let m = zupt_measurement(&self.x, &zc);
@@ -360,8 +368,10 @@ impl EgoEkf {
     /// copying now, after those updates, gives the same clone (up to
     /// rounding and the copy variance, taken from the current pose
     /// variances) as copying at the end of every moving step, without its
-    /// cost on the steps that never read it. While moving, the clone is a
-    /// past pose, carried exactly by propagation (`F = I`) and updates.
+    /// cost on the steps that never read it. While the clone is due it is
+    /// decoupled ([`covariance::decouple_clone`]): a past pose with zero
+    /// covariance with the other states, which propagation and updates
+    /// leave untouched (and propagation skips).
     fn clone_if_due(&mut self, still: bool) {
         if still && self.clone_due {
             clone_pose(&mut self.x, &mut self.p);

@@ -3,8 +3,14 @@
 //! not at every moving step), and the updates that follow hold the pose to
 //! it.
 
-use ego_ekf::state::{Quat, STANDARD_GRAVITY, Vec3};
+use ego_ekf::config::{ImuNoise, RobotPrior};
+use ego_ekf::covariance::{decouple_clone, is_positive_definite};
+use ego_ekf::propagate::{
+    Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
+};
+use ego_ekf::state::{CP, Covariance, DIM, Quat, STANDARD_GRAVITY, Vec3};
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
+use nalgebra::SMatrix;
 use vslam_core::Timestamp;
 use vslam_core::sensors::{ImuSample, WheelRates};
 
@@ -93,4 +99,57 @@ fn zero_velocity_updates_hold_the_pose_at_the_clone() {
     // Held within millimetres over 1.4 s of standing (the velocity decays
     // under the updates instead of carrying the pose away at 0.2 m/s).
     assert!((last - stop).norm() < 0.01, "{}", (last - stop).norm());
+}
+
+/// A random symmetric positive-definite matrix from a seed.
+fn random_spd(seed: u64) -> Covariance {
+    let mut s = seed;
+    let mut next = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
+    };
+    let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| next());
+    a * a.transpose() * 0.1 + Covariance::identity() * 0.01
+}
+
+#[test]
+fn a_decoupled_clone_stays_decoupled_and_propagation_may_skip_it() {
+    let r = Quat::from_euler_angles(0.05, -0.03, 1.2)
+        .to_rotation_matrix()
+        .into_inner();
+    let f = Transition::new(
+        &r,
+        &Vec3::new(0.3, -0.4, 9.9),
+        &Vec3::new(0.1, -0.05, 1.3),
+        0.004,
+    );
+    let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), 0.004);
+    let clone = CP..CP + 6;
+    for seed in 0..10 {
+        let original = random_spd(seed);
+        let mut p = original;
+        decouple_clone(&mut p);
+        assert!(is_positive_definite(&p));
+        for i in 0..DIM {
+            for j in 0..DIM {
+                let coupled = clone.contains(&i) != clone.contains(&j);
+                let want = if coupled { 0.0 } else { original[(i, j)] };
+                assert_eq!(p[(i, j)], want, "({i}, {j})");
+            }
+        }
+        let (mut full, mut skipped) = (p, p);
+        for _ in 0..5 {
+            propagate_covariance(&mut full, &f, &q);
+            propagate_covariance_clone_decoupled(&mut skipped, &f, &q);
+        }
+        // Bit for bit, and the clone's cross terms still zero.
+        assert_eq!(full, skipped);
+        for i in clone.clone() {
+            for j in (0..DIM).filter(|j| !clone.contains(j)) {
+                assert_eq!((full[(i, j)], full[(j, i)]), (0.0, 0.0));
+            }
+        }
+    }
 }
