@@ -249,6 +249,27 @@ pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude:
     }
 }
 
+/// Zeroes the clone's covariance with every other state (its rows and
+/// columns outside its own 6x6 block), which stays as it is: `P` stays
+/// positive (semi-)definite, and the clone no longer takes part in
+/// propagation or updates (its cross terms stay zero, see
+/// [`crate::propagate::propagate_covariance_clone_decoupled`]). For a clone
+/// that will be overwritten by [`clone_pose`] before anything reads it.
+pub fn decouple_clone(p: &mut Covariance) {
+    let clone = CP..CTH + 3;
+    for (j, col) in p.data.0.iter_mut().enumerate() {
+        if clone.contains(&j) {
+            for (i, v) in col.iter_mut().enumerate() {
+                if !clone.contains(&i) {
+                    *v = 0.0;
+                }
+            }
+        } else if let Some(rows) = col.get_mut(clone.clone()) {
+            rows.fill(0.0);
+        }
+    }
+}
+
 // The clone's position and attitude are adjacent.
 const _: () = assert!(CTH == CP + 3 && P + 3 <= CP && TH + 3 <= CP && CTH + 3 <= DIM);
 

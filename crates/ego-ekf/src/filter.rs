@@ -13,7 +13,8 @@ use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
 use crate::propagate::{
-    Transition, process_noise, propagate_covariance, propagate_nominal, vertical_deviation,
+    Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
+    propagate_nominal, vertical_deviation,
 };
 use crate::recovery::{Evidence, RecoveryCounts, ResetSource, Verdict, decide};
 use crate::state::{
@@ -107,6 +108,9 @@ pub struct EgoEkf {
     recovery: RecoveryCounts,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
+    /// Whether the clone is older than the latest moving step's pose (see
+    /// [`EgoEkf::propagate`]): the next still step clones first.
+    clone_due: bool,
 }
 
 /// IMU gaps the filter bridged (see [`crate::gap`]).
@@ -190,6 +194,7 @@ impl EgoEkf {
             recovery: RecoveryCounts::default(),
             gaps: GapCounts::default(),
             gap_odometry: GapOdometry::new(),
+            clone_due: false,
             config,
         })
     }
@@ -247,6 +252,7 @@ impl EgoEkf {
         }
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
+        self.clone_due = false;
         self.imu_clock.reset();
         // Anchor the IMU clock at the start time; cannot fail after a reset.
         let _ = self.imu_clock.accept(t);
@@ -256,7 +262,9 @@ impl EgoEkf {
     }
 
     /// Propagates with one IMU sample (bias-corrected first), runs the still
-    /// detector, the clone and, when due, a zero-velocity update.
+    /// detector and, when due, a zero-velocity update against the pose clone
+    /// (copied at the first still step after motion: it then holds the pose
+    /// of the last moving step; see `clone_if_due`).
     ///
     /// Before initialisation the sample feeds the still-sample average and is
     /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
@@ -308,12 +316,8 @@ impl EgoEkf {
         }
         let gyro = sample.gyro() - self.x.gyro_bias;
         let accel = sample.accel() - self.x.accel_bias;
-        let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
-        let f = Transition::new(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
-        propagate_nominal(&mut self.x, &accel, &gyro, dt);
-        propagate_covariance(&mut self.p, &f, &q);
-
+        // The still detector reads only the sample and the wheels' and the
+        // flow's latest word, so it runs before the state moves.
         let zc = self.config.zupt;
         let still = self.still.step(
             &zc,
@@ -322,8 +326,22 @@ impl EgoEkf {
             self.config.gravity,
             self.wheel.stopped() && !self.flow_sees_motion(sample.t()),
         );
-        if !still {
-            clone_pose(&mut self.x, &mut self.p);
+        self.clone_if_due(still);
+        let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
+        let f = Transition::new(&r_wb, &accel, &gyro, dt);
+        let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
+        propagate_nominal(&mut self.x, &accel, &gyro, dt);
+        if self.clone_due {
+            propagate_covariance_clone_decoupled(&mut self.p, &f, &q);
+        } else {
+            propagate_covariance(&mut self.p, &f, &q);
+        }
+
+        if !still && !self.clone_due {
+            // Nothing reads the clone until the next still step copies the
+            // pose over it: decoupled, it costs nothing in the meantime.
+            covariance::decouple_clone(&mut self.p);
+            self.clone_due = true;
         } else if self.still.update_due(&zc) {
             let m = zupt_measurement(&self.x, &zc);
             let outcome = gated_update(&mut self.x, &mut self.p, &m, None).map(|_| ());
@@ -337,6 +355,28 @@ impl EgoEkf {
             vertical_deviation: vertical_deviation(&self.x, &accel),
             still,
         })
+    }
+
+    /// Clones the pose if the clone is due and `still` (the step about to be
+    /// propagated is still, so a zero-velocity update may read the clone).
+    ///
+    /// The clone is the pose at the end of the latest moving step. Between
+    /// that step and this one only updates changed the state, and none of
+    /// them has the clone in its Jacobian: right after a copy, the clone's
+    /// rows of `P` are the pose's, so such an update corrects the clone
+    /// exactly as the pose (and leaves its rows equal to the pose's). So
+    /// copying now, after those updates, gives the same clone (up to
+    /// rounding and the copy variance, taken from the current pose
+    /// variances) as copying at the end of every moving step, without its
+    /// cost on the steps that never read it. While the clone is due it is
+    /// decoupled ([`covariance::decouple_clone`]): a past pose with zero
+    /// covariance with the other states, which propagation and updates
+    /// leave untouched (and propagation skips).
+    fn clone_if_due(&mut self, still: bool) {
+        if still && self.clone_due {
+            clone_pose(&mut self.x, &mut self.p);
+            self.clone_due = false;
+        }
     }
 
     /// Whether the flow, recent and precise, sees the robot move: then
@@ -359,6 +399,9 @@ impl EgoEkf {
     /// wheels' dead reckoning if they covered it, else at constant velocity.
     fn bridge(&mut self, gap_ns: u64, start: Option<Timestamp>, end: Timestamp) {
         let gap_s = vslam_core::time::nanos_to_seconds(gap_ns);
+        // The bridge moves the pose: the clone due from the last moving step
+        // is that step's pose, taken now (as if cloned at that step).
+        self.clone_if_due(true);
         let geometry = wheel_geometry(&self.x, &self.grip);
         let motion = start.and_then(|s| self.gap_odometry.take(s, end, &geometry, &self.config));
         let by_wheels = motion
@@ -386,12 +429,14 @@ impl EgoEkf {
         };
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
-        // too far ahead of the filter's time.
-        let geometry = wheel_geometry(&self.x, &self.grip);
-        let witness = self.speed_witness(rates.t);
-        let _ = self
-            .gap_odometry
-            .offer(now, rates, &geometry, witness, &self.config);
+        // too far ahead of the filter's time. Geometry and witness only then.
+        if GapOdometry::during_gap(now, rates.t, &self.config) {
+            let geometry = wheel_geometry(&self.x, &self.grip);
+            let witness = self.speed_witness(rates.t);
+            let _ = self
+                .gap_odometry
+                .offer(now, rates, &geometry, witness, &self.config);
+        }
         let gyro = self.angular_velocity();
         let mut out = self.wheel.fuse(
             &mut self.x,

@@ -22,7 +22,7 @@ use nalgebra::{Matrix3, Rotation3};
 use crate::config::{ImuNoise, RobotPrior};
 use crate::covariance::skew;
 use crate::state::{
-    BA, BG, CL, Covariance, DIM, ErrorState, G, NominalState, P, RAD, RB, TH, V, Vec3,
+    BA, BG, CL, CP, Covariance, DIM, ErrorState, G, NominalState, P, RAD, RB, TH, V, Vec3,
 };
 
 /// The non-identity blocks of the discrete error-state transition `F_x`.
@@ -139,6 +139,42 @@ fn at(column: &[f32; DIM], i: usize) -> f32 {
 /// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
 /// dense 85,000. The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
+    propagate_blocks::<false>(p, f, q);
+}
+
+/// [`propagate_covariance`] for a `P` whose clone is decoupled (its rows
+/// and columns zero outside the clone's own block, see
+/// [`crate::covariance::decouple_clone`]): `F` has no clone terms and `Q`
+/// none on the clone, so those zeros stay zero, and this skips them: the
+/// same result bit for bit, without the clone's six rows in the column
+/// passes and its six columns in the symmetric copy.
+pub fn propagate_covariance_clone_decoupled(p: &mut Covariance, f: &Transition, q: &ErrorState) {
+    propagate_blocks::<true>(p, f, q);
+}
+
+/// Rows `lo..hi` of a column (empty outside it).
+#[inline(always)]
+fn rows_of(lo: usize, hi: usize, column: &[f32; DIM]) -> &[f32] {
+    column.get(lo..hi).unwrap_or(&[])
+}
+
+/// Rows of the clone (skipped when decoupled).
+const CLONE_ROWS: core::ops::Range<usize> = CP..CP + 6;
+
+/// The row ranges the column passes visit: all rows, or all but the
+/// clone's.
+const fn row_ranges(skip_clone: bool) -> [(usize, usize); 2] {
+    if skip_clone {
+        [(0, CLONE_ROWS.start), (CLONE_ROWS.end, DIM)]
+    } else {
+        [(0, CLONE_ROWS.start), (CLONE_ROWS.start, DIM)]
+    }
+}
+
+/// The columns of `P F^T` for position, velocity and attitude over all
+/// rows, in the order that reads only old values.
+#[inline(always)]
+fn column_passes(p: &mut Covariance, f: &Transition) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
     {
@@ -198,6 +234,123 @@ pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) 
             (*c0, *c1, *c2) = (t.x, t.y, t.z);
         }
     }
+}
+
+/// [`column_passes`] over the rows of `ranges` only (the clone's rows
+/// skipped: measured cheaper on Cortex-M; on hosts the whole columns
+/// vectorise better).
+#[inline(always)]
+fn column_passes_in(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 2]) {
+    let dt = f.dt;
+    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
+    {
+        let [
+            p0,
+            p1,
+            p2,
+            v0,
+            v1,
+            v2,
+            t0,
+            t1,
+            t2,
+            a0,
+            a1,
+            a2,
+            w0,
+            w1,
+            w2,
+            g0,
+            g1,
+            g2,
+            ..,
+        ] = &mut p.data.0;
+        // Columns of `P F^T`, in the order that reads only old values:
+        // position (reads velocity), velocity (reads attitude), attitude.
+        for (lo, hi) in ranges {
+            let (Some(c0), Some(c1), Some(c2)) =
+                (p0.get_mut(lo..hi), p1.get_mut(lo..hi), p2.get_mut(lo..hi))
+            else {
+                continue;
+            };
+            let sources = rows_of(lo, hi, v0)
+                .iter()
+                .zip(rows_of(lo, hi, v1))
+                .zip(rows_of(lo, hi, v2));
+            for (((c0, c1), c2), ((s0, s1), s2)) in c0
+                .iter_mut()
+                .zip(c1.iter_mut())
+                .zip(c2.iter_mut())
+                .zip(sources)
+            {
+                *c0 += dt * s0;
+                *c1 += dt * s1;
+                *c2 += dt * s2;
+            }
+        }
+        for (lo, hi) in ranges {
+            let (Some(c0), Some(c1), Some(c2)) =
+                (v0.get_mut(lo..hi), v1.get_mut(lo..hi), v2.get_mut(lo..hi))
+            else {
+                continue;
+            };
+            let t_rows = rows_of(lo, hi, t0)
+                .iter()
+                .zip(rows_of(lo, hi, t1))
+                .zip(rows_of(lo, hi, t2));
+            let a_rows = rows_of(lo, hi, a0)
+                .iter()
+                .zip(rows_of(lo, hi, a1))
+                .zip(rows_of(lo, hi, a2));
+            let g_rows = rows_of(lo, hi, g0)
+                .iter()
+                .zip(rows_of(lo, hi, g1))
+                .zip(rows_of(lo, hi, g2));
+            for (((c0, c1), c2), ((((t0, t1), t2), ((a0, a1), a2)), ((g0, g1), g2))) in c0
+                .iter_mut()
+                .zip(c1.iter_mut())
+                .zip(c2.iter_mut())
+                .zip(t_rows.zip(a_rows).zip(g_rows))
+            {
+                let t = Vec3::new(*t0, *t1, *t2);
+                let a = Vec3::new(*a0, *a1, *a2);
+                let g = Vec3::new(*g0, *g1, *g2);
+                let v = Vec3::new(*c0, *c1, *c2) + fvt * t + fva * a + g * dt;
+                (*c0, *c1, *c2) = (v.x, v.y, v.z);
+            }
+        }
+        for (lo, hi) in ranges {
+            let (Some(c0), Some(c1), Some(c2)) =
+                (t0.get_mut(lo..hi), t1.get_mut(lo..hi), t2.get_mut(lo..hi))
+            else {
+                continue;
+            };
+            let w_rows = rows_of(lo, hi, w0)
+                .iter()
+                .zip(rows_of(lo, hi, w1))
+                .zip(rows_of(lo, hi, w2));
+            for (((c0, c1), c2), ((w0, w1), w2)) in c0
+                .iter_mut()
+                .zip(c1.iter_mut())
+                .zip(c2.iter_mut())
+                .zip(w_rows)
+            {
+                let w = Vec3::new(*w0, *w1, *w2);
+                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
+                (*c0, *c1, *c2) = (t.x, t.y, t.z);
+            }
+        }
+    }
+}
+
+fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
+    let dt = f.dt;
+    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
+    if SKIP_CLONE && cfg!(target_arch = "arm") {
+        column_passes_in(p, f, row_ranges(true));
+    } else {
+        column_passes(p, f);
+    }
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
     // 0..18 of the new columns (the rows BA, BG, G are final already).
@@ -250,6 +403,9 @@ pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) 
     let (imu, rest) = cols.split_at_mut(9);
     for (j, col) in rest.iter_mut().enumerate() {
         let j = j + 9;
+        if SKIP_CLONE && CLONE_ROWS.contains(&j) {
+            continue;
+        }
         for (dst, src) in col.iter_mut().zip(imu.iter()) {
             *dst = at(src, j);
         }

@@ -133,7 +133,13 @@ impl NominalState {
         self.gyro_bias += dx.fixed_rows::<3>(BG);
         self.gravity += dx.fixed_rows::<3>(G);
         self.clone_p_wb += dx.fixed_rows::<3>(CP);
-        self.clone_q_wb = rotate_local(&self.clone_q_wb, &dx.fixed_rows::<3>(CTH).into_owned());
+        // A decoupled clone (see `crate::covariance::decouple_clone`) gets no
+        // correction: skip its rotation (and the renormalisation, which the
+        // copy that ends its decoupling makes moot).
+        let d_clone = dx.fixed_rows::<3>(CTH).into_owned();
+        if d_clone != Vec3::zeros() {
+            self.clone_q_wb = rotate_local(&self.clone_q_wb, &d_clone);
+        }
         self.p_bl += dx.fixed_rows::<3>(CL);
         self.p_br += dx.fixed_rows::<3>(CR);
         self.q_rb = rotate_local(&self.q_rb, &dx.fixed_rows::<3>(RB).into_owned());

@@ -106,10 +106,20 @@ impl GapOdometry {
         (self.anchor == Some(imu_last) && self.samples > 0).then_some(&self.motion)
     }
 
+    /// Whether a wheel sample at `t` counts as during a gap after the
+    /// filter's latest IMU time `imu_last` (see the module docs), so that
+    /// [`GapOdometry::offer`] would take it: the filter asks first and
+    /// builds the geometry and the speed witness only then.
+    pub fn during_gap(imu_last: Timestamp, t: Timestamp, config: &FilterConfig) -> bool {
+        config.gap.wheels
+            && t.nanos_since(imu_last)
+                .is_some_and(|ahead| ahead > config.imu_max_dt_ns)
+    }
+
     /// Offers a wheel sample, with the filter's latest IMU time and, if
     /// there is one, a witness of the forward speed. Returns `None` when the
-    /// sample is not during a gap (nothing counted), else the outcome
-    /// (counted).
+    /// sample is not during a gap (nothing counted, see
+    /// [`GapOdometry::during_gap`]), else the outcome (counted).
     pub fn offer(
         &mut self,
         imu_last: Timestamp,
@@ -118,11 +128,7 @@ impl GapOdometry {
         witness: Option<SpeedWitness>,
         config: &FilterConfig,
     ) -> Option<Result<(), Reject>> {
-        if !config.gap.wheels {
-            return None;
-        }
-        let ahead = rates.t.nanos_since(imu_last)?;
-        if ahead <= config.imu_max_dt_ns {
+        if !Self::during_gap(imu_last, rates.t, config) {
             return None;
         }
         if self.anchor != Some(imu_last) {
