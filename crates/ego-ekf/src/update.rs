@@ -36,7 +36,7 @@ use vslam_core::Reject;
 use crate::covariance::{reset_needed, reset_upper};
 #[cfg(not(target_arch = "arm"))]
 use crate::lanes::Lanes;
-use crate::state::{Covariance, DIM, ErrorState, NominalState};
+use crate::state::{CP, CTH, Covariance, DIM, ErrorState, NominalState};
 
 /// The columns where a measurement Jacobian `H` (`M` rows) is nonzero: a
 /// bit mask over the error state, with `H` borrowed.
@@ -523,7 +523,13 @@ pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, 
         // rows `4k..4k + 4` of column `r`.
         let wb: [[Lanes<4>; M]; DIM / 4] =
             core::array::from_fn(|k| w.data.0.each_ref().map(|c| Lanes::load(c, 4 * k)));
+        // With W zero on the clone's rows (a decoupled clone), its columns
+        // are left as they are: the same bits as subtracting zeros.
+        let skip = clone_rows_zero(w);
         for (j, col) in p.data.0.iter_mut().enumerate() {
+            if skip && CLONE.contains(&j) {
+                continue;
+            }
             let wj = row_of(w, j);
             // The blocks down to the one holding the diagonal, a count
             // known at compile time in each arm (unrolled, unchecked).
@@ -595,10 +601,19 @@ pub fn downdate_symmetric<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, D
 /// also stored at `(j.., i)`, and the last columns are done over all rows.
 #[cfg(target_arch = "arm")]
 fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>, symmetric: bool) {
+    // With W zero on the clone's rows (a decoupled clone), the four-column
+    // blocks within the clone are left as they are: the same bits as
+    // subtracting zeros. (Skipping its rows in the other blocks measured
+    // dearer than it saves.)
+    let skip = clone_rows_zero(w);
     let cols = &mut p.data.0;
     let mut j = 0;
     while let Some((left, right)) = cols.split_at_mut_checked(j) {
         if let [c0, c1, c2, c3, ..] = right {
+            if skip && j >= CLONE.start && j + 4 <= CLONE.end {
+                j += 4;
+                continue;
+            }
             let (a0, a1, a2, a3) = (
                 row_of(w, j),
                 row_of(w, j + 1),
@@ -635,6 +650,23 @@ fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>
             break;
         }
     }
+}
+
+/// The error-state rows of the pose clone.
+const CLONE: core::ops::Range<usize> = CP..CTH + 3;
+const _: () = assert!(CTH == CP + 3 && CLONE.end - CLONE.start >= 2);
+
+/// Whether `W` is exactly zero on the clone's rows: then `P - W W^T`
+/// leaves the clone's rows and columns as they are (this is so while the
+/// filter keeps the clone decoupled, see
+/// [`crate::covariance::decouple_clone`]: its cross terms are zero and no
+/// measurement Jacobian has clone columns).
+fn clone_rows_zero<const M: usize>(w: &SMatrix<f32, DIM, M>) -> bool {
+    w.data.0.iter().fold(true, |ok, col| {
+        ok & col
+            .get(CLONE)
+            .is_some_and(|rows| rows.iter().fold(true, |z, v| z & (*v == 0.0)))
+    })
 }
 
 /// Row `i` of `W`.

@@ -270,3 +270,30 @@ fn mirror_copies_every_upper_entry_and_keeps_the_upper_triangle() {
         }
     }
 }
+
+/// With the clone decoupled (its cross terms zero, so `W` is zero on its
+/// rows), the downdate that leaves the clone's columns alone gives the bits
+/// of the full downdate, and a `W` with one nonzero clone entry is not
+/// mistaken for a decoupled one.
+#[test]
+fn downdate_skipping_a_decoupled_clone_equals_the_full_downdate() {
+    let mut rng = Rng(11);
+    for case in 0..10 {
+        let mut p0 = random_covariance(&mut rng);
+        ego_ekf::covariance::decouple_clone(&mut p0);
+        let mut w = SMatrix::<f32, DIM, 4>::from_fn(|_, _| 0.1 * rng.next());
+        for r in 0..4 {
+            for i in 18..24 {
+                w[(i, r)] = 0.0;
+            }
+        }
+        if case % 2 == 1 {
+            w[(20, 1)] = 0.05;
+        }
+        let (mut full, mut triangle) = (p0, p0);
+        downdate(&mut full, &w);
+        downdate_upper(&mut triangle, &w);
+        mirror_upper_to_lower(&mut triangle);
+        assert_eq!(triangle, full, "case {case}");
+    }
+}
