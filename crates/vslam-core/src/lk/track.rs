@@ -544,6 +544,10 @@ impl Tracker {
                 }
             };
             let mut v = u + flow;
+            let eps_sq = match cfg.coarse_epsilon {
+                Some(coarse) if level > 0 => coarse * coarse,
+                _ => eps_sq,
+            };
             let mut previous_step = Vec2::zeros();
             converged = false;
             iterations = 0;
