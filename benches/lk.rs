@@ -77,6 +77,13 @@ fn bench(c: &mut Criterion) {
             },
         ),
         (
+            "lk/100_corners_21x21_3_levels_coarse_epsilon_0.04",
+            LkConfig {
+                coarse_epsilon: Some(0.04),
+                ..LkConfig::default()
+            },
+        ),
+        (
             "lk/100_corners_21x21_3_levels_affine",
             LkConfig {
                 affine_refinement: true,

@@ -4,7 +4,9 @@
 //! median endpoint error against the ground-truth homography and the median
 //! wall time of one tracking call (a rough figure; the criterion bench is the
 //! measurement).
-//! Usage: `lk_profile [ROUNDS [REPEATS]]` (default 20 rounds of 1 tracking call).
+//! Usage: `lk_profile [ROUNDS [REPEATS [COARSE_EPSILON]]]` (default 20 rounds
+//! of 1 tracking call, `LkConfig::default()`; a third argument sets
+//! `LkConfig::coarse_epsilon`).
 
 #[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
 mod lk_support;
@@ -45,7 +47,12 @@ fn main() {
     let points: Vec<Vec2> = corners[..n].iter().map(Corner::position).collect();
     let (mut sa, mut sb) = (Box::new(Storage::new()), Box::new(Storage::new()));
     let mut results = vec![TrackResult::EMPTY; n];
-    let tracker = Tracker::new(LkConfig::default()).unwrap();
+    let coarse_epsilon = std::env::args().nth(3).and_then(|a| a.parse().ok());
+    let tracker = Tracker::new(LkConfig {
+        coarse_epsilon,
+        ..LkConfig::default()
+    })
+    .unwrap();
     let mut iterations = 0;
     let mut times = Vec::with_capacity(rounds * repeat);
     for _ in 0..rounds {

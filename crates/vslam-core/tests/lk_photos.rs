@@ -112,6 +112,26 @@ fn photos_shifted_track_within_five_hundredths_of_a_pixel() {
 }
 
 #[test]
+fn photos_track_as_well_with_a_looser_coarse_epsilon() {
+    // Coarse levels stopped at 0.04 level pixels only seed level 0, which
+    // still converges to `epsilon`: the endpoint error barely moves.
+    let coarse = LkConfig {
+        coarse_epsilon: Some(0.04),
+        ..LkConfig::default()
+    };
+    for name in ["camera.png", "brick.png", "gravel.png"] {
+        let h = shift_and_perspective();
+        let (base, _, _) = track_photo("shift+perspective", name, &h, LkConfig::default());
+        let (med, tracked, _) = track_photo("coarse epsilon 0.04", name, &h, coarse);
+        assert!(
+            med <= 0.05 && med <= base + 0.005,
+            "{name}: median error {med} px ({base} px with epsilon at every level)"
+        );
+        assert!(tracked >= 0.95, "{name}: tracked only {tracked}");
+    }
+}
+
+#[test]
 fn photos_rotated_track_with_affine_refinement() {
     for (name, bar) in [
         ("camera.png", 0.05),

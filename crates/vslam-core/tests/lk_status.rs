@@ -302,6 +302,16 @@ fn call_errors() {
         }),
         Some(LkConfigError::Epsilon)
     );
+    for coarse in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            bad(LkConfig {
+                coarse_epsilon: Some(coarse),
+                ..d
+            }),
+            Some(LkConfigError::CoarseEpsilon),
+            "{coarse}"
+        );
+    }
     assert_eq!(
         bad(LkConfig {
             min_eigenvalue: -1.0,

@@ -19,6 +19,13 @@ pub struct LkConfig {
     pub max_iterations: u32,
     /// Stop iterating when a step is shorter than this (level pixels), `> 0`.
     pub epsilon: f32,
+    /// The same limit at the coarse pyramid levels (all but level 0), `> 0`
+    /// and finite, or `None` for `epsilon` at every level (as OpenCV). A
+    /// coarse level only seeds the next finer one, which refines the result,
+    /// so a looser limit there saves iterations (about 15 % of the tracking
+    /// work at 21x21, 3 levels with 0.04) at a small cost in how close the
+    /// level-0 iteration starts; the level-0 limit stays `epsilon`.
+    pub coarse_epsilon: Option<f32>,
     /// Smallest accepted eigenvalue of `G / window²`, (levels/pixel)², `>= 0`.
     pub min_eigenvalue: f32,
     /// Largest accepted residual (mean absolute difference, levels), `> 0`;
@@ -33,7 +40,8 @@ pub struct LkConfig {
 }
 
 impl Default for LkConfig {
-    /// OpenCV's defaults (21x21, 3 levels, 30 iterations, 0.01 px), a
+    /// OpenCV's defaults (21x21, 3 levels, 30 iterations, 0.01 px at every
+    /// level), a
     /// 0.1 (level/px)² eigenvalue floor, a residual limit of 30 levels, the
     /// translational model only (as OpenCV), no forward-backward check.
     fn default() -> Self {
@@ -42,6 +50,7 @@ impl Default for LkConfig {
             levels: 3,
             max_iterations: 30,
             epsilon: 0.01,
+            coarse_epsilon: None,
             min_eigenvalue: 0.1,
             max_residual: 30.0,
             affine_refinement: false,
@@ -61,6 +70,8 @@ pub enum LkConfigError {
     Iterations,
     /// `epsilon` is not a positive finite number.
     Epsilon,
+    /// `coarse_epsilon` is not a positive finite number.
+    CoarseEpsilon,
     /// `min_eigenvalue` is negative or not finite.
     MinEigenvalue,
     /// `max_residual` is not positive (or NaN).
@@ -76,6 +87,7 @@ impl fmt::Display for LkConfigError {
             LkConfigError::Levels => "LK levels must be from 1 to the pyramid maximum",
             LkConfigError::Iterations => "LK needs at least one iteration",
             LkConfigError::Epsilon => "LK epsilon must be positive and finite",
+            LkConfigError::CoarseEpsilon => "LK coarse-level epsilon must be positive and finite",
             LkConfigError::MinEigenvalue => "LK eigenvalue floor must be finite and non-negative",
             LkConfigError::MaxResidual => "LK residual limit must be positive",
             LkConfigError::FbThreshold => {
@@ -101,6 +113,11 @@ impl LkConfig {
         }
         if !(self.epsilon.is_finite() && self.epsilon > 0.0) {
             return Err(LkConfigError::Epsilon);
+        }
+        if let Some(e) = self.coarse_epsilon
+            && !(e.is_finite() && e > 0.0)
+        {
+            return Err(LkConfigError::CoarseEpsilon);
         }
         if !(self.min_eigenvalue.is_finite() && self.min_eigenvalue >= 0.0) {
             return Err(LkConfigError::MinEigenvalue);

@@ -37,11 +37,11 @@
 //! the inner loops compile to SIMD; windows inside the image read the image
 //! rows directly, windows over a coarse level's border read edge-replicated
 //! copies through the same kernel (`window`). The template and its Scharr
-//! gradients are built once per point and level; only the moving window is
-//! resampled per iteration.
+//! gradients are built once per point and level (the patch streams through
+//! three rows); only the moving window is resampled per iteration.
 //!
 //! No heap and no panic: one template buffer for windows up to
-//! [`MAX_WINDOW`]² lives on the stack per call (about 20 KiB with the
+//! [`MAX_WINDOW`]² lives on the stack per call (about 12.6 KiB with the
 //! border-window scratch), results go into caller slices, any input point
 //! (NaN, infinite, far outside) yields a status.
 //!

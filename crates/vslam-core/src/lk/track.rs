@@ -16,15 +16,16 @@ use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
 /// inverse of the spatial gradient matrix `G`; rows are [`Row`]s.
 pub(super) struct Template {
     pub(super) n: usize,
-    pub(super) t: [Row; MAX_WINDOW],
-    pub(super) gx: [Row; MAX_WINDOW],
-    pub(super) gy: [Row; MAX_WINDOW],
+    pub(super) t: [TplRow; MAX_WINDOW],
+    pub(super) gx: [TplRow; MAX_WINDOW],
+    pub(super) gy: [TplRow; MAX_WINDOW],
     /// 1 for the `n` window columns, 0 for the padding.
-    mask: Row,
+    mask: TplRow,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
-    /// The sampled window with a one-pixel frame for the gradients.
-    patch: [Row; MAX_WINDOW + 2],
+    /// Three consecutive rows of the sampled window with its one-pixel
+    /// frame (the gradients' support), used as a ring while filling.
+    patch: [Row; 3],
     /// A copied source row (near edges) and two horizontally interpolated
     /// rows: scratch of [`Template::mismatch`], kept here so that no call
     /// zeroes buffers.
@@ -48,16 +49,16 @@ struct Mismatch {
 
 impl Template {
     /// Storage for one template, filled per point and level by [`Template::fill`]
-    /// (one instance serves a whole batch: no per-point zeroing of 16 KiB).
+    /// (one instance serves a whole batch: no per-point zeroing of 12 KiB).
     fn empty() -> Self {
         Template {
             n: 0,
-            t: [[0.0; ROW]; MAX_WINDOW],
-            gx: [[0.0; ROW]; MAX_WINDOW],
-            gy: [[0.0; ROW]; MAX_WINDOW],
-            mask: [0.0; ROW],
+            t: [[0.0; TPL]; MAX_WINDOW],
+            gx: [[0.0; TPL]; MAX_WINDOW],
+            gy: [[0.0; TPL]; MAX_WINDOW],
+            mask: [0.0; TPL],
             g_inv: [0.0; 3],
-            patch: [[0.0; ROW]; MAX_WINDOW + 2],
+            patch: [[0.0; ROW]; 3],
             src: [0; SRC],
             rows: [[0.0; ROW]; 2],
         }
@@ -84,22 +85,20 @@ impl Template {
         if n > MAX_WINDOW {
             return Err(TemplateFault::OutOfBounds);
         }
-        match window::chunks(m) {
-            1 => self.sample_patch::<1>(image, &src, m),
-            2 => self.sample_patch::<2>(image, &src, m),
-            3 => self.sample_patch::<3>(image, &src, m),
-            4 => self.sample_patch::<4>(image, &src, m),
-            _ => self.sample_patch::<MAX_CHUNKS>(image, &src, m),
-        }
         self.n = n;
         for (k, v) in self.mask.iter_mut().enumerate() {
             *v = if k < n { 1.0 } else { 0.0 };
         }
-        let [gxx, gxy, gyy] = match window::chunks(n) {
-            1 => self.gradients::<1>(),
-            2 => self.gradients::<2>(),
-            3 => self.gradients::<3>(),
-            _ => self.gradients::<4>(),
+        // (patch chunks, window chunks) for n = 3..=31, odd.
+        let [gxx, gxy, gyy] = match (window::chunks(m), window::chunks(n)) {
+            (1, _) => self.sample::<1, 1>(image, &src),
+            (2, 1) => self.sample::<2, 1>(image, &src),
+            (2, _) => self.sample::<2, 2>(image, &src),
+            (3, 2) => self.sample::<3, 2>(image, &src),
+            (3, _) => self.sample::<3, 3>(image, &src),
+            (4, 3) => self.sample::<4, 3>(image, &src),
+            (4, _) => self.sample::<4, 4>(image, &src),
+            _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
         };
         let area = (n * n) as f32;
         let half_diff = 0.5 * (gxx - gyy);
@@ -113,58 +112,54 @@ impl Template {
         Ok(())
     }
 
-    /// Samples the `m x m` patch (`P` chunks wide) into `self.patch`.
+    /// Samples the `n + 2` square patch (`P` chunks wide) row by row into
+    /// the ring `self.patch`; once three rows are there, the template row
+    /// between them and its Scharr gradients (`C` chunks wide) follow.
+    /// Returns the sums `[gxx, gxy, gyy]` of `G`.
     #[inline(always)]
-    fn sample_patch<const P: usize>(&mut self, image: &ImageView<'_>, src: &SourceRows, m: usize) {
+    fn sample<const P: usize, const C: usize>(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> [f32; 3] {
         let Template {
-            patch,
+            n,
+            t,
+            gx,
+            gy,
+            mask,
+            patch: [r0, r1, r2],
             src: buf,
             rows: [top, bottom],
             ..
         } = self;
+        let mut sums = [[0.0f32; LANES]; 3];
         let (mut h0, mut h1) = (top, bottom);
         let need = P * LANES + 1;
         let weights = [src.ax, src.ay];
         window::horizontal::<P>(src.row(image, 0, need, buf), src.ax, h0);
-        let outs = patch.iter_mut().take(m);
-        if let Some((data, mut start, stride)) = src.inside_rows(image) {
-            for (i, out) in outs.enumerate() {
-                start = start.saturating_add(stride);
-                let next = match data.get(start..start.saturating_add(need)) {
-                    Some(next) => next,
-                    None => src.row(image, i + 1, need, buf),
-                };
-                patch_row::<P>(next, weights, [h0, h1], out);
-                core::mem::swap(&mut h0, &mut h1);
+        let inside = src.inside_rows(image);
+        let (data, mut start, stride) = inside.unwrap_or((&[], 0, 0));
+        let outputs = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
+        let mut outputs = outputs.take(*n);
+        // Ring slots: the oldest, the middle and the newest patch row.
+        let (mut a, mut b, mut c) = (r0, r1, r2);
+        for i in 0..*n + 2 {
+            // Inside: the source rows are stride apart in the image buffer.
+            start = start.saturating_add(stride);
+            let next = match data.get(start..start.saturating_add(need)) {
+                Some(next) if inside.is_some() => next,
+                _ => src.row(image, i + 1, need, buf),
+            };
+            // The new row goes where the oldest was.
+            patch_row::<P>(next, weights, [h0, h1], a);
+            core::mem::swap(&mut h0, &mut h1);
+            (a, b, c) = (b, c, a);
+            if i >= 2
+                && let Some(((t, gx), gy)) = outputs.next()
+            {
+                gradient_row::<C>([&*a, &*b, &*c], mask, [t, gx, gy], &mut sums);
             }
-        } else {
-            for (i, out) in outs.enumerate() {
-                patch_row::<P>(src.row(image, i + 1, need, buf), weights, [h0, h1], out);
-                core::mem::swap(&mut h0, &mut h1);
-            }
-        }
-    }
-
-    /// Template and Scharr gradients (`C` chunks wide) from the patch, and
-    /// the sums `[gxx, gxy, gyy]` of `G`.
-    #[inline(always)]
-    fn gradients<const C: usize>(&mut self) -> [f32; 3] {
-        let mut sums = [[0.0f32; LANES]; 3];
-        let rows = self
-            .patch
-            .iter()
-            .zip(self.patch.iter().skip(1))
-            .zip(self.patch.iter().skip(2))
-            .zip(
-                self.t
-                    .iter_mut()
-                    .zip(self.gx.iter_mut())
-                    .zip(self.gy.iter_mut()),
-            )
-            .take(self.n);
-        let mask = &self.mask;
-        for (((p0, p1), p2), ((t, gx), gy)) in rows {
-            gradient_row::<C>([p0, p1, p2], mask, [t, gx, gy], &mut sums);
         }
         let [sxx, sxy, syy] = sums;
         [
@@ -279,8 +274,8 @@ fn patch_row<const P: usize>(
 #[inline(never)]
 fn gradient_row<const C: usize>(
     [p0, p1, p2]: [&Row; 3],
-    mask: &Row,
-    [t, gx, gy]: [&mut Row; 3],
+    mask: &TplRow,
+    [t, gx, gy]: [&mut TplRow; 3],
     sums: &mut [[f32; LANES]; 3],
 ) {
     let width = C * LANES;
@@ -301,9 +296,7 @@ fn gradient_row<const C: usize>(
     else {
         return;
     };
-    if let (Some(t), Some(centre)) = (t.first_chunk_mut::<TPL>(), centre.first_chunk::<TPL>()) {
-        t.copy_from_slice(centre);
-    }
+    t.copy_from_slice(centre);
     for ((g, &m), (&s0, &s2)) in gx.iter_mut().zip(mask).zip(s0.iter().zip(s2)).take(width) {
         *g = (s2 - s0) * (m / 32.0);
     }
@@ -335,7 +328,7 @@ fn mismatch_row<const C: usize, const ABS: bool>(
     next: &[u8],
     [ax, ay]: [f32; 2],
     [h0, h1]: [&mut Row; 2],
-    [t, gx, gy, mask]: [&Row; 4],
+    [t, gx, gy, mask]: [&TplRow; 4],
     sums: &mut [[f32; LANES]; 3],
 ) {
     window::horizontal_inline::<C>(next, ax, h1);
@@ -544,6 +537,10 @@ impl Tracker {
                 }
             };
             let mut v = u + flow;
+            let eps_sq = match cfg.coarse_epsilon {
+                Some(coarse) if level > 0 => coarse * coarse,
+                _ => eps_sq,
+            };
             let mut previous_step = Vec2::zeros();
             converged = false;
             iterations = 0;
@@ -631,6 +628,8 @@ impl Tracker {
 
 /// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
 const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
+/// One template row: intensities, gradients or the column mask.
+pub(super) type TplRow = [f32; TPL];
 
 /// The left, centre and right [`TPL`]-wide views of a patch row.
 type Taps<'a> = (&'a [f32; TPL], &'a [f32; TPL], &'a [f32; TPL]);
