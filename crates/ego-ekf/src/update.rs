@@ -261,15 +261,15 @@ pub fn fuse_prepared<const M: usize>(
     residual: &SVector<f32, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
-    fuse_prepared_owned(x, p, *pht, s, residual, gate)
+    fuse_prepared_owned(x, p, &mut pht.clone_owned(), s, residual, gate)
 }
 
-/// [`fuse_prepared`] taking `P H^T` by value: its storage becomes `W`
-/// (no copy of the `35 x M` block when the caller moves it in).
+/// [`fuse_prepared`] in the caller's `P H^T`: its storage becomes `W`
+/// (no copy of the `35 x M` block; its contents are garbage afterwards).
 pub(crate) fn fuse_prepared_owned<const M: usize>(
     x: &mut NominalState,
     p: &mut Covariance,
-    mut w: SMatrix<f32, DIM, M>,
+    w: &mut SMatrix<f32, DIM, M>,
     s: &SMatrix<f32, M, M>,
     residual: &SVector<f32, M>,
     gate: Option<f32>,
@@ -318,11 +318,11 @@ pub(crate) fn fuse_prepared_owned<const M: usize>(
     // exactly symmetric. Without a reset, Cortex-M writes both triangles in
     // the downdate itself (the same bits, no mirror).
     if reset_needed(&dx) {
-        downdate_upper(p, &w);
+        downdate_upper(p, w);
         reset_upper(p, &dx);
         mirror_upper_to_lower(p);
     } else {
-        downdate_symmetric(p, &w);
+        downdate_symmetric(p, w);
     }
     x.inject(&dx);
     Ok(UpdateReport { nis })

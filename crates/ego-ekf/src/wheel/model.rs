@@ -112,10 +112,14 @@ struct MidFactors {
 }
 
 impl WheelRows {
-    /// Whether residual, Jacobian and noise are finite (branch-free).
+    /// Whether residual, Jacobian and noise are finite: the sum of every
+    /// value times zero is zero for finite values and NaN as soon as one is
+    /// infinite or NaN (no overflow, whatever the magnitudes; one
+    /// multiply-add per value instead of a classification).
     pub fn is_finite(&self) -> bool {
-        let all = |v: &[f32]| v.iter().fold(true, |ok, x| ok & x.is_finite());
-        all(self.residual.as_slice()) & self.h.iter().all(|r| all(r)) & all(&self.noise)
+        let zeros = |v: &[f32]| v.iter().fold(0.0f32, |acc, x| acc + x * 0.0);
+        let h = self.h.iter().fold(0.0f32, |acc, r| acc + zeros(r));
+        zeros(self.residual.as_slice()) + h + zeros(&self.noise) == 0.0
     }
 
     /// The dense measurement (35 columns, 4x4 noise).
@@ -705,6 +709,54 @@ mod tests {
             let (fast, slow) = (rows.p_ht(&p), rows.p_ht_nalgebra(&p));
             for (f, s) in fast.iter().zip(slow.iter()) {
                 assert_eq!(f.to_bits(), s.to_bits(), "{fast} vs {slow}");
+            }
+        }
+    }
+
+    /// Any infinite or NaN value anywhere in the rows is found, and large
+    /// finite values are not taken for infinite ones.
+    #[test]
+    fn rows_are_finite_unless_one_value_is_not() {
+        let x = NominalState {
+            p_wb: Vec3::zeros(),
+            v_wb: Vec3::new(0.3, 0.0, 0.0),
+            q_wb: Quat::identity(),
+            accel_bias: Vec3::zeros(),
+            gyro_bias: Vec3::zeros(),
+            gravity: Vec3::new(0.0, 0.0, -9.81),
+            clone_p_wb: Vec3::zeros(),
+            clone_q_wb: Quat::identity(),
+            p_bl: Vec3::new(0.0, 0.115, -0.06),
+            p_br: Vec3::new(0.0, -0.115, -0.06),
+            q_rb: Quat::identity(),
+            radius_left: 0.035,
+            radius_right: 0.035,
+        };
+        let rates = WheelRates::new(Timestamp(0), 8.0, 9.0).unwrap_or_else(|_| unreachable!());
+        let rows = wheel_rows(
+            &x,
+            &Vec3::new(0.0, 0.0, 0.2),
+            &rates,
+            &GripParams::default(),
+        );
+        assert!(rows.is_finite());
+        let mut big = rows;
+        big.h = [[f32::MAX; SUPPORT_LEN]; 4];
+        big.noise = [f32::MAX; 4];
+        assert!(big.is_finite());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for k in 0..4 {
+                let mut r = rows;
+                r.residual[k] = bad;
+                assert!(!r.is_finite());
+                let mut r = rows;
+                r.noise[k] = bad;
+                assert!(!r.is_finite());
+                for c in 0..SUPPORT_LEN {
+                    let mut r = rows;
+                    r.h[k][c] = bad;
+                    assert!(!r.is_finite(), "h[{k}][{c}] = {bad}");
+                }
             }
         }
     }

@@ -55,7 +55,7 @@ pub fn update(
     if !rows.is_finite() {
         return Err(Reject::NonFinite);
     }
-    let pht = rows.p_ht(p);
+    let mut pht = rows.p_ht(p);
     let s = rows.innovation_covariance(&pht);
     let [forward, diff, ..] = rows.residual.data.0[0];
     let var_fwd = s.get((FORWARD, FORWARD)).copied().unwrap_or(0.0);
@@ -65,17 +65,17 @@ pub fn update(
     }
     let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
     if gated {
-        let pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
+        let mut pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
         fuse_prepared_owned(
             x,
             p,
-            pht_c,
+            &mut pht_c,
             &s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned(),
             &rows.residual.fixed_rows::<2>(LATERAL).into_owned(),
             None,
         )?;
     } else {
-        fuse_prepared_owned(x, p, pht, &s, &rows.residual, None)?;
+        fuse_prepared_owned(x, p, &mut pht, &s, &rows.residual, None)?;
     }
     Ok(WheelUpdate {
         forward,
