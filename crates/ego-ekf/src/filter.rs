@@ -670,7 +670,10 @@ impl EgoEkf {
         [self.std3(CL), self.std3(CR)]
     }
 
-    /// Clone standard deviations `(position, attitude)`.
+    /// Clone standard deviations `(position, attitude)`. The clone is taken
+    /// at the first still step after motion (the zero-velocity update reads
+    /// it); while the robot moves it is the last one taken, kept decoupled,
+    /// so these are its variances from then, not the current pose's.
     pub fn clone_std(&self) -> (Vec3, Vec3) {
         (self.std3(CP), self.std3(CTH))
     }
