@@ -161,86 +161,22 @@ fn rows_of(lo: usize, hi: usize, column: &[f32; DIM]) -> &[f32] {
 /// Rows of the clone (skipped when decoupled).
 const CLONE_ROWS: core::ops::Range<usize> = CP..CP + 6;
 
-/// The row ranges the column passes visit: all rows, or all but the
-/// clone's.
+/// The row ranges the column passes visit: all rows (one range), or all
+/// but the clone's.
 const fn row_ranges(skip_clone: bool) -> [(usize, usize); 2] {
     if skip_clone {
         [(0, CLONE_ROWS.start), (CLONE_ROWS.end, DIM)]
     } else {
-        [(0, CLONE_ROWS.start), (CLONE_ROWS.start, DIM)]
+        [(0, DIM), (DIM, DIM)]
     }
 }
 
-/// The columns of `P F^T` for position, velocity and attitude over all
-/// rows, in the order that reads only old values.
+/// The columns of `P F^T` for position, velocity and attitude over the
+/// rows of `ranges` (all rows, or all but a decoupled clone's: skipping
+/// them measured cheaper on Cortex-M; on hosts the whole columns, as one
+/// range, vectorise better), in the order that reads only old values.
 #[inline(always)]
-fn column_passes(p: &mut Covariance, f: &Transition) {
-    let dt = f.dt;
-    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
-    {
-        let [
-            p0,
-            p1,
-            p2,
-            v0,
-            v1,
-            v2,
-            t0,
-            t1,
-            t2,
-            a0,
-            a1,
-            a2,
-            w0,
-            w1,
-            w2,
-            g0,
-            g1,
-            g2,
-            ..,
-        ] = &mut p.data.0;
-        // Columns of `P F^T`, in the order that reads only old values:
-        // position (reads velocity), velocity (reads attitude), attitude.
-        for (i, ((c0, c1), c2)) in p0
-            .iter_mut()
-            .zip(p1.iter_mut())
-            .zip(p2.iter_mut())
-            .enumerate()
-        {
-            *c0 += dt * at(v0, i);
-            *c1 += dt * at(v1, i);
-            *c2 += dt * at(v2, i);
-        }
-        for (i, ((c0, c1), c2)) in v0
-            .iter_mut()
-            .zip(v1.iter_mut())
-            .zip(v2.iter_mut())
-            .enumerate()
-        {
-            let t = Vec3::new(at(t0, i), at(t1, i), at(t2, i));
-            let a = Vec3::new(at(a0, i), at(a1, i), at(a2, i));
-            let g = Vec3::new(at(g0, i), at(g1, i), at(g2, i));
-            let v = Vec3::new(*c0, *c1, *c2) + fvt * t + fva * a + g * dt;
-            (*c0, *c1, *c2) = (v.x, v.y, v.z);
-        }
-        for (i, ((c0, c1), c2)) in t0
-            .iter_mut()
-            .zip(t1.iter_mut())
-            .zip(t2.iter_mut())
-            .enumerate()
-        {
-            let w = Vec3::new(at(w0, i), at(w1, i), at(w2, i));
-            let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
-            (*c0, *c1, *c2) = (t.x, t.y, t.z);
-        }
-    }
-}
-
-/// [`column_passes`] over the rows of `ranges` only (the clone's rows
-/// skipped: measured cheaper on Cortex-M; on hosts the whole columns
-/// vectorise better).
-#[inline(always)]
-fn column_passes_in(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 2]) {
+fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 2]) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
     {
@@ -346,11 +282,7 @@ fn column_passes_in(p: &mut Covariance, f: &Transition, ranges: [(usize, usize);
 fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
-    if SKIP_CLONE && cfg!(target_arch = "arm") {
-        column_passes_in(p, f, row_ranges(true));
-    } else {
-        column_passes(p, f);
-    }
+    column_passes(p, f, row_ranges(SKIP_CLONE && cfg!(target_arch = "arm")));
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
     // 0..18 of the new columns (the rows BA, BG, G are final already).
