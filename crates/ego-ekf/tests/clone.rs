@@ -3,14 +3,16 @@
 //! not at every moving step), and the updates that follow hold the pose to
 //! it.
 
+mod random_update;
+
 use ego_ekf::config::{ImuNoise, RobotPrior};
 use ego_ekf::covariance::{decouple_clone, is_positive_definite};
 use ego_ekf::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
 };
-use ego_ekf::state::{CP, Covariance, DIM, Quat, STANDARD_GRAVITY, Vec3};
+use ego_ekf::state::{CP, DIM, Quat, STANDARD_GRAVITY, Vec3};
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
-use nalgebra::SMatrix;
+use random_update::{Rng, random_covariance};
 use vslam_core::Timestamp;
 use vslam_core::sensors::{ImuSample, WheelRates};
 
@@ -101,19 +103,6 @@ fn zero_velocity_updates_hold_the_pose_at_the_clone() {
     assert!((last - stop).norm() < 0.01, "{}", (last - stop).norm());
 }
 
-/// A random symmetric positive-definite matrix from a seed.
-fn random_spd(seed: u64) -> Covariance {
-    let mut s = seed;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-    };
-    let a = SMatrix::<f32, DIM, DIM>::from_fn(|_, _| next());
-    a * a.transpose() * 0.1 + Covariance::identity() * 0.01
-}
-
 #[test]
 fn a_decoupled_clone_stays_decoupled_and_propagation_may_skip_it() {
     let r = Quat::from_euler_angles(0.05, -0.03, 1.2)
@@ -128,7 +117,7 @@ fn a_decoupled_clone_stays_decoupled_and_propagation_may_skip_it() {
     let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), 0.004);
     let clone = CP..CP + 6;
     for seed in 0..10 {
-        let original = random_spd(seed);
+        let original = random_covariance(&mut Rng(seed));
         let mut p = original;
         decouple_clone(&mut p);
         assert!(is_positive_definite(&p));

@@ -1,7 +1,7 @@
 //! Seeded random filter states and covariances, the `f64` textbook update
 //! used as the oracle, and the error measures: shared by the tests that
 //! compare the fast update paths with the dense formulas (`fast_update.rs`,
-//! `wheel_fast.rs`).
+//! `wheel_fast.rs`), and by `clone.rs` for its random covariances.
 #![allow(dead_code)]
 
 use ego_ekf::state::{CTH, Covariance, DIM, ErrorState, NominalState, Quat, RB, TH, Vec3};
