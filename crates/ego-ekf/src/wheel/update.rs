@@ -20,7 +20,7 @@ use nalgebra::SMatrix;
 use vslam_core::Reject;
 
 use crate::state::{Covariance, DIM, NominalState};
-use crate::update::fuse_prepared_owned;
+use crate::update::fuse_prepared_in_place;
 use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, WheelRows};
 
 // The constraint rows are adjacent (their `P H^T` columns are taken as a
@@ -66,7 +66,7 @@ pub fn update(
     let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
     if gated {
         let mut pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
-        fuse_prepared_owned(
+        fuse_prepared_in_place(
             x,
             p,
             &mut pht_c,
@@ -75,7 +75,7 @@ pub fn update(
             None,
         )?;
     } else {
-        fuse_prepared_owned(x, p, &mut pht, &s, &rows.residual, None)?;
+        fuse_prepared_in_place(x, p, &mut pht, &s, &rows.residual, None)?;
     }
     Ok(WheelUpdate {
         forward,
