@@ -293,17 +293,10 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
     // they are zero (a decoupled clone).
     let z = z.map(|[v]| v);
     let skip = clone_rows_zero(w);
-    let mut reduction = [0.0f32; DIM];
     let mut dx = ErrorState::zeros();
-    whiten_rows(l, &inv_diag, &z, w, &mut reduction, &mut dx.data.0[0], skip);
     // Refuse an update that would leave a non-positive (or non-finite)
     // variance: the diagonal of `W W^T` against that of `P`.
-    let mut valid = true;
-    for (i, (col, red)) in p.data.0.iter().zip(reduction).enumerate() {
-        let after = col.get(i).copied().unwrap_or(0.0) - red;
-        valid &= (after > 0.0) & (after < f32::INFINITY);
-    }
-    if !valid {
+    if !whiten_rows(l, &inv_diag, &z, w, p, &mut dx.data.0[0], skip) {
         return Err(Reject::Degenerate);
     }
     if !all_finite(dx.as_slice()) {
@@ -490,26 +483,33 @@ fn forward_substitute<const M: usize, const N: usize>(
 
 /// Row by row, `W = B L^-T` in place of `B = P H^T` (the forward
 /// substitution of [`forward_substitute`] applied to each row, the same
-/// operations in the same order), with `reduction[i] = |W[i, ..]|^2` (the
-/// diagonal of `W W^T`) and `dx[i] = W[i, ..] . z`: one pass instead of
-/// three over the `35 x M` block. Rows in [`CLONE`] are skipped when
-/// `skip_clone` (they are zero and stay so: their reduction and
-/// correction are zero). On hosts four rows at a time ([`Lanes`]: a
-/// column's consecutive rows), on Cortex-M one.
+/// operations in the same order), with `dx[i] = W[i, ..] . z`; returns
+/// whether every variance `P[i, i] - |W[i, ..]|^2` after the update would
+/// be positive and finite. One pass instead of four over the `35 x M`
+/// block. Rows in [`CLONE`] are skipped when `skip_clone` (they are zero
+/// and stay so: their correction is zero, their variance unchanged). On
+/// hosts four rows at a time ([`Lanes`]: a column's consecutive rows), on
+/// Cortex-M one.
 fn whiten_rows<const M: usize>(
     l: &SMatrix<f32, M, M>,
     inv_diag: &[f32; M],
     z: &[f32; M],
     w: &mut SMatrix<f32, DIM, M>,
-    reduction: &mut [f32; DIM],
+    p: &Covariance,
     dx: &mut [f32; DIM],
     skip_clone: bool,
-) {
+) -> bool {
+    let diag = |i: usize| p.data.0.get(i).and_then(|c| c.get(i)).copied();
+    let ok = |after: f32| (after > 0.0) & (after < f32::INFINITY);
+    let mut valid = true;
     #[cfg(not(target_arch = "arm"))]
     let first_single = {
         const BLOCKS: usize = DIM / 4;
         for at in (0..BLOCKS).map(|k| 4 * k) {
             if skip_clone && at >= CLONE.start && at + 4 <= CLONE.end {
+                for i in at..at + 4 {
+                    valid &= ok(diag(i).unwrap_or(0.0));
+                }
                 continue;
             }
             let b = w.data.0.each_ref().map(|c| Lanes::<4>::load(c, at));
@@ -517,8 +517,9 @@ fn whiten_rows<const M: usize>(
             for (c, lanes) in w.data.0.iter_mut().zip(v) {
                 lanes.store(c, at);
             }
-            red.store(reduction, at);
             d.store(dx, at);
+            let before = Lanes::<4>(core::array::from_fn(|t| diag(at + t).unwrap_or(0.0)));
+            valid &= (before - red).0.iter().fold(true, |all, &a| all & ok(a));
         }
         4 * BLOCKS
     };
@@ -526,6 +527,7 @@ fn whiten_rows<const M: usize>(
     let first_single = 0;
     for i in first_single..DIM {
         if skip_clone && CLONE.contains(&i) {
+            valid &= ok(diag(i).unwrap_or(0.0));
             continue;
         }
         let (v, red, d) = whiten(l, inv_diag, z, row_of(w, i));
@@ -534,10 +536,12 @@ fn whiten_rows<const M: usize>(
                 *e = value;
             }
         }
-        if let (Some(r), Some(x)) = (reduction.get_mut(i), dx.get_mut(i)) {
-            (*r, *x) = (red, d);
+        if let Some(x) = dx.get_mut(i) {
+            *x = d;
         }
+        valid &= ok(diag(i).unwrap_or(0.0) - red);
     }
+    valid
 }
 
 /// One row (or block of rows) `b` of [`whiten_rows`]: `b L^-T`, its
@@ -817,14 +821,15 @@ mod tests {
         }
     }
 
-    /// The three passes `whiten_rows` replaces: the forward substitution
-    /// over whole columns, then the squared norms, then `W z`.
-    fn three_passes<const M: usize>(
+    /// The four passes `whiten_rows` replaces: the forward substitution
+    /// over whole columns, the squared norms, `W z`, and the variance check.
+    fn four_passes<const M: usize>(
         l: &SMatrix<f32, M, M>,
         inv_diag: &[f32; M],
         z: &[f32; M],
         w: &mut SMatrix<f32, DIM, M>,
-    ) -> ([f32; DIM], [f32; DIM]) {
+        p: &Covariance,
+    ) -> ([f32; DIM], bool) {
         forward_substitute(l, inv_diag, &mut w.data.0);
         let mut reduction = [0.0f32; DIM];
         for w_r in w.data.0.iter() {
@@ -836,10 +841,15 @@ mod tests {
         for (w_r, zr) in w.data.0.iter().zip(z) {
             axpy(&mut dx, *zr, w_r);
         }
-        (reduction, dx)
+        let mut valid = true;
+        for (i, red) in reduction.iter().enumerate() {
+            let after = p[(i, i)] - red;
+            valid &= (after > 0.0) & (after < f32::INFINITY);
+        }
+        (dx, valid)
     }
 
-    fn whitening_matches<const M: usize>(seed: u32, zero_clone: bool) {
+    fn whitening_matches<const M: usize>(seed: u32, zero_clone: bool) -> bool {
         let mut r = rng(seed);
         let a = SMatrix::<f32, M, M>::from_fn(|_, _| r());
         let s = a * a.transpose() + SMatrix::<f32, M, M>::identity() * 0.1;
@@ -851,12 +861,30 @@ mod tests {
                 col[CLONE].fill(0.0);
             }
         }
+        // Variances twice the reductions (valid), except for one row just
+        // below its reduction now and then, or a zero variance in the
+        // clone (invalid).
+        let mut reduction = b;
+        forward_substitute(&l, &inv_diag, &mut reduction.data.0);
+        let mut p = Covariance::zeros();
+        for i in 0..DIM {
+            let red: f32 = reduction.row(i).iter().map(|v| v * v).sum();
+            p[(i, i)] = 2.0 * red + 1e-3;
+        }
+        if seed.is_multiple_of(3) {
+            let k = (seed as usize * 7) % CLONE.start;
+            let red: f32 = reduction.row(k).iter().map(|v| v * v).sum();
+            p[(k, k)] = 0.9 * red;
+        }
+        if seed.is_multiple_of(5) {
+            p[(CLONE.start + 1, CLONE.start + 1)] = 0.0;
+        }
         let mut old = b;
-        let (old_red, old_dx) = three_passes(&l, &inv_diag, &z, &mut old);
+        let (old_dx, old_valid) = four_passes(&l, &inv_diag, &z, &mut old, &p);
         for skip in [false, zero_clone] {
             let mut new = b;
-            let (mut red, mut dx) = ([0.0f32; DIM], [0.0f32; DIM]);
-            whiten_rows(&l, &inv_diag, &z, &mut new, &mut red, &mut dx, skip);
+            let mut dx = [0.0f32; DIM];
+            let valid = whiten_rows(&l, &inv_diag, &z, &mut new, &p, &mut dx, skip);
             let bits = |v: &[f32]| {
                 v.iter()
                     .map(|x| x.to_bits())
@@ -867,22 +895,26 @@ mod tests {
                 bits(old.as_slice()),
                 "W, seed {seed}, skip {skip}"
             );
-            assert_eq!(
-                bits(&red),
-                bits(&old_red),
-                "reduction, seed {seed}, skip {skip}"
-            );
             assert_eq!(bits(&dx), bits(&old_dx), "dx, seed {seed}, skip {skip}");
+            assert_eq!(valid, old_valid, "validity, seed {seed}, skip {skip}");
         }
+        old_valid
     }
 
     #[test]
-    fn whitening_row_by_row_gives_the_bits_of_the_three_column_passes() {
+    fn whitening_row_by_row_gives_the_bits_of_the_column_passes() {
+        let mut valid = [0usize; 2];
         for seed in 1..40 {
-            whitening_matches::<1>(seed, false);
-            whitening_matches::<2>(seed, seed % 2 == 0);
-            whitening_matches::<3>(seed, seed % 3 == 0);
-            whitening_matches::<4>(seed, seed % 2 == 1);
+            for v in [
+                whitening_matches::<1>(seed, false),
+                whitening_matches::<2>(seed, seed.is_multiple_of(2)),
+                whitening_matches::<3>(seed, seed.is_multiple_of(3)),
+                whitening_matches::<4>(seed, !seed.is_multiple_of(2)),
+            ] {
+                valid[usize::from(v)] += 1;
+            }
         }
+        // Both outcomes of the variance check occur.
+        assert!(valid[0] > 10 && valid[1] > 10, "{valid:?}");
     }
 }

@@ -146,12 +146,21 @@ impl WheelRows {
     /// from its coefficients on gyro bias, contact-point difference,
     /// `R_rb` and radii. About 75 operations and 20 loads per row of `P`,
     /// against 70 multiply-adds with 140 loads over `H`'s columns.
+    pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, 4> {
+        let mut out = SMatrix::<f32, DIM, 4>::zeros();
+        self.p_ht_to(p, &mut out);
+        out
+    }
+
+    /// [`WheelRows::p_ht`] into `out` (every entry written). The in-place
+    /// form saves the copy of the returned `35 x 4` block (about 490
+    /// instructions on Cortex-M, where the returned matrix was built in a
+    /// local and copied out).
     ///
     /// Not inlined: inlined into the update, the host build spends about
     /// 500 more instructions on it (callgrind, `examples/ekf_steps`).
     #[inline(never)]
-    pub fn p_ht(&self, p: &Covariance) -> SMatrix<f32, DIM, 4> {
-        let mut out = SMatrix::<f32, DIM, 4>::zeros();
+    pub fn p_ht_to(&self, p: &Covariance, out: &mut SMatrix<f32, DIM, 4>) {
         #[cfg(not(target_arch = "arm"))]
         {
             // By symmetry, rows `at..at + N` of the support's columns are
@@ -273,7 +282,6 @@ impl WheelRows {
                 [*f0, *f1, *f2, *f3] = self.rows_of_p(x);
             }
         }
-        out
     }
 
     /// `H p` for the entries `x` of a row `p` of `P` at [`SUPPORT`]: the
@@ -360,10 +368,16 @@ impl WheelRows {
     /// the upper triangle computed, the lower mirrored.
     pub fn innovation_covariance(&self, pht: &SMatrix<f32, DIM, 4>) -> SMatrix<f32, 4, 4> {
         let mut s = SMatrix::<f32, 4, 4>::zeros();
+        // The rows of `pht` at the support read in place (gathering them
+        // into an array first cost a call and a copy per column on
+        // Cortex-M: about 140 instructions each).
         for (c, pht_c) in pht.data.0.iter().enumerate() {
-            let rows_c = SUPPORT.map(|j| pht_c.get(j).copied().unwrap_or(0.0));
             for (r, h_r) in self.h.iter().enumerate().take(c + 1) {
-                let v = h_r.iter().zip(rows_c).map(|(h, a)| h * a).sum::<f32>();
+                let v = h_r
+                    .iter()
+                    .zip(SUPPORT)
+                    .map(|(h, j)| h * pht_c.get(j).copied().unwrap_or(0.0))
+                    .sum::<f32>();
                 if let Some(e) = s.get_mut((r, c)) {
                     *e = v;
                 }
@@ -440,8 +454,30 @@ pub fn wheel_rows(
     let d_bg_diff = r_x * skew(&lever);
     let d_rb_diff = -(r_x * skew(&u_diff));
 
-    // Rows 0, 2, 3 are rows x, y, z of the mid-point velocity.
-    let mid_row = |axis: usize| -> [f32; SUPPORT_LEN] {
+    // Rows 0, 2, 3 are rows x, y, z of the mid-point velocity; all four
+    // written in place (rows built as values and then gathered cost three
+    // calls and a copy of the whole Jacobian on Cortex-M).
+    let sf2 = grip.forward_std() * grip.forward_std();
+    let sl2 = grip.lateral_std() * grip.lateral_std();
+    // Built where it is returned from (a value assembled from parts was
+    // copied out whole: about 290 instructions on Cortex-M).
+    let mut out = WheelRows {
+        residual: -h_val,
+        h: [[0.0f32; SUPPORT_LEN]; 4],
+        noise: [0.5 * sf2, 2.0 * sf2, sl2, sl2],
+        mid: MidFactors {
+            r_rb,
+            r_wb_t: r_wb.transpose(),
+            v_b,
+            p_mid,
+            half_w: gyro * 0.5,
+            u_mid,
+        },
+    };
+    let h = &mut out.h;
+    let d_c_x = d_c.row(0);
+    let diff_blocks = [d_bg_diff, -d_c_x, d_c_x.into_owned(), d_rb_diff];
+    for (axis, row) in [FORWARD, LATERAL, VERTICAL].into_iter().enumerate() {
         let blocks = [
             d_v.row(axis).into_owned(),
             d_th.row(axis).into_owned(),
@@ -450,23 +486,21 @@ pub fn wheel_rows(
             d_c.row(axis) * 0.5,
             d_rb_mid.row(axis).into_owned(),
         ];
-        let mut row = [0.0f32; SUPPORT_LEN];
-        for (dst, v) in row.chunks_exact_mut(3).zip(blocks) {
+        if let Some(row) = h.get_mut(row) {
+            for (dst, v) in row.chunks_exact_mut(3).zip(blocks) {
+                dst.copy_from_slice(v.as_slice());
+            }
+        }
+    }
+    if let Some(diff) = h.get_mut(DIFFERENTIAL) {
+        for (dst, v) in diff
+            .chunks_exact_mut(3)
+            .skip(DIFFERENTIAL_FROM / 3)
+            .zip(diff_blocks)
+        {
             dst.copy_from_slice(v.as_slice());
         }
-        row
-    };
-    let d_c_x = d_c.row(0);
-    let diff_blocks = [d_bg_diff, -d_c_x, d_c_x.into_owned(), d_rb_diff];
-    let mut diff = [0.0f32; SUPPORT_LEN];
-    for (dst, v) in diff
-        .chunks_exact_mut(3)
-        .skip(DIFFERENTIAL_FROM / 3)
-        .zip(diff_blocks)
-    {
-        dst.copy_from_slice(v.as_slice());
     }
-    let mut h = [mid_row(0), diff, mid_row(1), mid_row(2)];
     // Radius columns. With the mean radius and the radius difference,
     // `r_l w_l + r_r w_r = 2 r_mean w_mean + dr dw / 2` and
     // `r_r w_r - r_l w_l = r_mean dw + dr w_mean`. The regressors are
@@ -482,29 +516,14 @@ pub fn wheel_rows(
     } else {
         (0.5 * (wl + wr), wr - wl)
     };
-    let [f, d, ..] = &mut h;
+    let [f, d, ..] = h;
     if let Some([a, b]) = f.get_mut(CONSTRAINT_TO..) {
         (*a, *b) = (-0.5 * w_mean + 0.25 * dw, -0.5 * w_mean - 0.25 * dw);
     }
     if let Some([a, b]) = d.get_mut(CONSTRAINT_TO..) {
         (*a, *b) = (w_mean - 0.5 * dw, -w_mean - 0.5 * dw);
     }
-
-    let sf2 = grip.forward_std() * grip.forward_std();
-    let sl2 = grip.lateral_std() * grip.lateral_std();
-    WheelRows {
-        residual: -h_val,
-        h,
-        noise: [0.5 * sf2, 2.0 * sf2, sl2, sl2],
-        mid: MidFactors {
-            r_rb,
-            r_wb_t: r_wb.transpose(),
-            v_b,
-            p_mid,
-            half_w: gyro * 0.5,
-            u_mid,
-        },
-    }
+    out
 }
 
 /// Lanes per block of rows in [`WheelRows::p_ht`] on hosts.

@@ -55,7 +55,8 @@ pub fn update(
     if !rows.is_finite() {
         return Err(Reject::NonFinite);
     }
-    let mut pht = rows.p_ht(p);
+    let mut pht = SMatrix::<f32, DIM, 4>::zeros();
+    rows.p_ht_to(p, &mut pht);
     let s = rows.innovation_covariance(&pht);
     let [forward, diff, ..] = rows.residual.data.0[0];
     let var_fwd = s.get((FORWARD, FORWARD)).copied().unwrap_or(0.0);
