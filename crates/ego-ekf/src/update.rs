@@ -500,9 +500,12 @@ fn whiten_rows<const M: usize>(
     let diag = |i: usize| p.data.0.get(i).and_then(|c| c.get(i)).copied();
     let ok = |after: f32| (after > 0.0) & (after < f32::INFINITY);
     let mut valid = true;
+    let mut zeros = 0.0f32;
     #[cfg(not(target_arch = "arm"))]
     let first_single = {
         const BLOCKS: usize = DIM / 4;
+        // The corrections times zero: zero while they are all finite.
+        let mut zeros = Lanes::<4>::from(0.0);
         for at in (0..BLOCKS).map(|k| 4 * k) {
             if skip_clone && at >= CLONE.start && at + 4 <= CLONE.end {
                 for i in at..at + 4 {
@@ -518,11 +521,9 @@ fn whiten_rows<const M: usize>(
             d.store(dx, at);
             let before = Lanes::<4>(core::array::from_fn(|t| diag(at + t).unwrap_or(0.0)));
             valid &= (before - red).0.iter().fold(true, |all, &a| all & ok(a));
-            valid &= (d * Lanes::from(0.0))
-                .0
-                .iter()
-                .fold(true, |all, &a| all & (a == 0.0));
+            zeros = zeros + d * Lanes::from(0.0);
         }
+        valid &= zeros.0.iter().fold(true, |all, &a| all & (a == 0.0));
         4 * BLOCKS
     };
     #[cfg(target_arch = "arm")]
@@ -544,10 +545,11 @@ fn whiten_rows<const M: usize>(
             }
         }
         *x = d;
-        // A finite correction: `d * 0` is NaN for infinite or NaN `d`.
-        valid &= ok(before - red) & (d * 0.0 == 0.0);
+        valid &= ok(before - red);
+        zeros += d * 0.0;
     }
-    valid
+    // Finite corrections: `d * 0` is NaN for an infinite or NaN `d`.
+    valid & (zeros == 0.0)
 }
 
 /// One row (or block of rows) `b` of [`whiten_rows`]: `b L^-T`, its
