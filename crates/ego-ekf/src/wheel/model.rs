@@ -428,6 +428,11 @@ pub fn wheel_measurement(
 /// [`SUPPORT`] only.
 ///
 /// `gyro` is the latest bias-corrected angular rate of the body.
+///
+/// Inlined: called out of line, the rows (about 480 bytes) were built in
+/// the callee and copied to the caller (about 480 instructions on
+/// Cortex-M; `firmware/run-qemu`).
+#[inline(always)]
 pub fn wheel_rows(
     x: &NominalState,
     gyro: &Vec3,
