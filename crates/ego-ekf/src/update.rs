@@ -767,6 +767,27 @@ fn downdate_blocked<const M: usize>(
                 }
             }
             j += 4;
+        } else if let [c0, c1, c2] = right {
+            // The last three columns (35 = 8 x 4 + 3) as one block over all
+            // rows, each row of `W` loaded once for the three (the rows
+            // below the diagonal are the mirror's values, bit for bit;
+            // without `symmetric` the mirror overwrites them anyway).
+            let (a0, a1, a2) = (row_of(w, j), row_of(w, j + 1), row_of(w, j + 2));
+            let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
+            for (i, ((p0, p1), p2)) in rows.enumerate() {
+                let wi = row_of(w, i);
+                let mut v = [*p0, *p1, *p2];
+                for (r, wir) in wi.iter().enumerate() {
+                    let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
+                    let [s0, s1, s2] = v;
+                    v = [s0 - at(&a0) * wir, s1 - at(&a1) * wir, s2 - at(&a2) * wir];
+                }
+                [*p0, *p1, *p2] = v;
+                if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(j..j + 3)) {
+                    dst.copy_from_slice(&v);
+                }
+            }
+            break;
         } else {
             for (c, col) in right.iter_mut().enumerate() {
                 let jc = j + c;
