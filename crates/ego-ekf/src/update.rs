@@ -482,11 +482,11 @@ fn forward_substitute<const M: usize, const N: usize>(
 /// substitution of [`forward_substitute`] applied to each row, the same
 /// operations in the same order), with `dx[i] = W[i, ..] . z`; returns
 /// whether every variance `P[i, i] - |W[i, ..]|^2` after the update would
-/// be positive and finite, and `dx` finite. One pass instead of four over the `35 x M`
-/// block. Rows in [`CLONE`] are skipped when `skip_clone` (they are zero
-/// and stay so: their correction is zero, their variance unchanged). On
-/// hosts four rows at a time ([`Lanes`]: a column's consecutive rows), on
-/// Cortex-M one.
+/// be positive and finite, and `dx` finite. One pass instead of four over
+/// the `35 x M` block. Rows in [`CLONE`] are skipped when `skip_clone`
+/// (they are zero and stay so: their correction is zero, their variance
+/// unchanged). On hosts four rows at a time ([`Lanes`]: a column's
+/// consecutive rows), on Cortex-M one.
 fn whiten_rows<const M: usize>(
     l: &SMatrix<f32, M, M>,
     inv_diag: &[f32; M],
@@ -506,7 +506,7 @@ fn whiten_rows<const M: usize>(
         let mut valid = true;
         const BLOCKS: usize = DIM / 4;
         // The corrections times zero: zero while they are all finite.
-        let mut zeros = Lanes::<4>::from(0.0);
+        let mut lane_zeros = Lanes::<4>::from(0.0);
         for at in (0..BLOCKS).map(|k| 4 * k) {
             if skip_clone && at >= CLONE.start && at + 4 <= CLONE.end {
                 for i in at..at + 4 {
@@ -522,19 +522,17 @@ fn whiten_rows<const M: usize>(
             d.store(dx, at);
             let before = Lanes::<4>(core::array::from_fn(|t| diag(at + t).unwrap_or(0.0)));
             valid &= (before - red).0.iter().fold(true, |all, &a| all & ok(a));
-            zeros = zeros + d * Lanes::from(0.0);
+            lane_zeros = lane_zeros + d * Lanes::from(0.0);
         }
-        valid &= zeros.0.iter().fold(true, |all, &a| all & (a == 0.0));
+        valid &= lane_zeros.0.iter().fold(true, |all, &a| all & (a == 0.0));
         (4 * BLOCKS, valid)
     };
     #[cfg(target_arch = "arm")]
     let (first_single, valid) = (0, true);
-    // Column `i` of `P` by iteration (its diagonal entry then needs no
-    // bounds check: a lookup by index cost about 20 instructions a row on
-    // Cortex-M).
     // The variances checked as one running maximum of their codes (see
     // [`variance_code`]: about 5 instructions a row on Cortex-M, against
-    // about 19 for the two comparisons).
+    // about 19 for the two float comparisons), the corrections' finiteness
+    // as their sum times zero.
     let mut worst = 0u32;
     let singles = p.data.0.iter().zip(dx.iter_mut()).enumerate();
     for (i, (col, x)) in singles.skip(first_single) {
@@ -726,8 +724,8 @@ fn downdate_symmetric_with<const M: usize>(
 /// The Cortex-M downdate, four columns `j..j + 4` at a time over the rows
 /// `0..j + 4` (the diagonal block whole: its lower entries are the same
 /// products as its upper ones, so equal bit for bit), the last three
-/// columns one by one. With `symmetric`, each entry of a row `i < j` is
-/// also stored at `(j.., i)`, and the last columns are done over all rows.
+/// columns as one block over all rows. With `symmetric`, each entry of a
+/// row `i < j` is also stored at `(j.., i)`.
 #[cfg(target_arch = "arm")]
 fn downdate_blocked<const M: usize>(
     p: &mut Covariance,
