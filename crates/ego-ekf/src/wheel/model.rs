@@ -474,8 +474,8 @@ pub fn wheel_rows(
     // calls and a copy of the whole Jacobian on Cortex-M).
     let sf2 = grip.forward_std() * grip.forward_std();
     let sl2 = grip.lateral_std() * grip.lateral_std();
-    // Built where it is returned from (a value assembled from parts was
-    // copied out whole: about 290 instructions on Cortex-M).
+    // Built where it is returned from, the Jacobian rows written into it
+    // (the copy out of the function is avoided by inlining, see above).
     let mut out = WheelRows {
         residual: -h_val,
         h: [[0.0f32; SUPPORT_LEN]; 4],
