@@ -158,16 +158,17 @@ fn rows_of(lo: usize, hi: usize, column: &[f32; DIM]) -> &[f32] {
     column.get(lo..hi).unwrap_or(&[])
 }
 
-/// Rows of the clone (skipped when decoupled).
+/// Rows of the clone (skipped when decoupled): the last ones.
 const CLONE_ROWS: core::ops::Range<usize> = CP..CP + 6;
+const _: () = assert!(CLONE_ROWS.end == DIM);
 
-/// The row ranges the column passes visit: all rows (one range), or all
-/// but the clone's.
-const fn row_ranges(skip_clone: bool) -> [(usize, usize); 2] {
+/// The rows the column passes visit: all, or all but the clone's (the
+/// clone is the last block of the state).
+const fn row_ranges(skip_clone: bool) -> [(usize, usize); 1] {
     if skip_clone {
-        [(0, CLONE_ROWS.start), (CLONE_ROWS.end, DIM)]
+        [(0, CLONE_ROWS.start)]
     } else {
-        [(0, DIM), (DIM, DIM)]
+        [(0, DIM)]
     }
 }
 
@@ -176,7 +177,7 @@ const fn row_ranges(skip_clone: bool) -> [(usize, usize); 2] {
 /// them measured cheaper on Cortex-M; on hosts the whole columns, as one
 /// range, vectorise better), in the order that reads only old values.
 #[inline(always)]
-fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 2]) {
+fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
     {
@@ -331,19 +332,19 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
             };
         }
     }
-    // Rows 0..9 of the other columns: by symmetry, the new columns' entries.
+    // Rows 0..9 of the other columns: by symmetry, the new columns' entries
+    // (a decoupled clone's columns, the last ones, stay zero there).
+    let end = if SKIP_CLONE { CLONE_ROWS.start } else { DIM };
     let (imu, rest) = cols.split_at_mut(9);
-    for (j, col) in rest.iter_mut().enumerate() {
+    for (j, col) in rest.iter_mut().enumerate().take(end - 9) {
         let j = j + 9;
-        if SKIP_CLONE && CLONE_ROWS.contains(&j) {
-            continue;
-        }
         for (dst, src) in col.iter_mut().zip(imu.iter()) {
             *dst = at(src, j);
         }
     }
+    // `Q` has no clone entries.
     let [q] = &q.data.0;
-    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate() {
+    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate().take(end) {
         if let Some(d) = col.get_mut(i) {
             *d += qi;
         }

@@ -21,15 +21,18 @@
 //! | accelerometer bias | 3 | 3 | [`BA`] |
 //! | gyroscope bias | 3 | 3 | [`BG`] |
 //! | gravity `g_w` | 3 | 3 | [`G`] |
-//! | clone position | 3 | 3 | [`CP`] |
-//! | clone attitude | 4 | 3 | [`CTH`] |
 //! | left contact point `p_bl` | 3 | 3 | [`CL`] |
 //! | right contact point `p_br` | 3 | 3 | [`CR`] |
 //! | body-to-robot rotation `q_rb` | 4 | 3 | [`RB`] |
 //! | wheel radii (left, right) | 2 | 2 | [`RAD`] |
+//! | clone position | 3 | 3 | [`CP`] |
+//! | clone attitude | 4 | 3 | [`CTH`] |
 //!
-//! IMU: nominal 19, error [`IMU_DIM`] = 18; clone 6; robot 11; total
-//! [`DIM`] = 35.
+//! IMU: nominal 19, error [`IMU_DIM`] = 18; robot 11; clone 6; total
+//! [`DIM`] = 35. The clone comes last: while it is decoupled (see
+//! [`crate::covariance::decouple_clone`]) the states that take part in
+//! propagation and updates are the first [`DIM`] - 6, one contiguous run
+//! that the covariance loops end early on instead of stepping over.
 
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
@@ -52,18 +55,18 @@ pub const BG: usize = 12;
 pub const G: usize = 15;
 /// Dimension of the IMU error state.
 pub const IMU_DIM: usize = 18;
-/// Error-state index of the clone position.
-pub const CP: usize = 18;
-/// Error-state index of the clone attitude error.
-pub const CTH: usize = 21;
 /// Error-state index of the left wheel contact point (body frame).
-pub const CL: usize = 24;
+pub const CL: usize = 18;
 /// Error-state index of the right wheel contact point (body frame).
-pub const CR: usize = 27;
+pub const CR: usize = 21;
 /// Error-state index of the body-to-robot rotation error.
-pub const RB: usize = 30;
+pub const RB: usize = 24;
 /// Error-state index of the left wheel radius; the right one follows.
-pub const RAD: usize = 33;
+pub const RAD: usize = 27;
+/// Error-state index of the clone position.
+pub const CP: usize = 29;
+/// Error-state index of the clone attitude error.
+pub const CTH: usize = 32;
 /// Error-state index of the left wheel radius.
 pub const RAD_L: usize = RAD;
 /// Error-state index of the right wheel radius.

@@ -672,7 +672,7 @@ fn downdate_upper_with<const M: usize>(
         }
     }
     #[cfg(target_arch = "arm")]
-    downdate_blocked(p, w, false, skip_clone);
+    downdate_blocked::<M, false>(p, w, skip_clone);
 }
 
 /// The first `B` blocks of four rows of a column of [`downdate_upper`],
@@ -718,95 +718,134 @@ fn downdate_symmetric_with<const M: usize>(
         mirror_upper_to_lower(p);
     }
     #[cfg(target_arch = "arm")]
-    downdate_blocked(p, w, true, skip_clone);
+    downdate_blocked::<M, true>(p, w, skip_clone);
 }
 
-/// The Cortex-M downdate, four columns `j..j + 4` at a time over the rows
-/// `0..j + 4` (the diagonal block whole: its lower entries are the same
-/// products as its upper ones, so equal bit for bit), the last three
-/// columns as one block over all rows. With `symmetric`, each entry of a
-/// row `i < j` is also stored at `(j.., i)`.
+/// The Cortex-M downdate, four columns `j..j + 4` at a time
+/// ([`downdate_block`]), then the columns left over (35 = 8 x 4 + 3;
+/// 29 = 7 x 4 + 1) over all rows ([`downdate_tail`]). With `skip` (a
+/// decoupled clone), only the states before the clone: the first
+/// `CLONE.start` rows and columns (the clone is the last block of the
+/// state). Every block's columns are constants, so its rows of `W` are
+/// plain loads (a column start known only at run time cost about 140
+/// instructions of checks and address arithmetic per block).
 #[cfg(target_arch = "arm")]
-fn downdate_blocked<const M: usize>(
+fn downdate_blocked<const M: usize, const SYMMETRIC: bool>(
     p: &mut Covariance,
     w: &SMatrix<f32, DIM, M>,
-    symmetric: bool,
     skip: bool,
 ) {
     // With W zero on the clone's rows (a decoupled clone: `skip`), the
-    // four-column blocks within the clone are left as they are: the same
-    // bits as subtracting zeros. (Skipping its rows in the other blocks
-    // measured dearer than it saves.)
+    // clone's rows and columns are left as they are: the same bits as
+    // subtracting zeros.
     let cols = &mut p.data.0;
-    let mut j = 0;
-    while let Some((left, right)) = cols.split_at_mut_checked(j) {
-        if let [c0, c1, c2, c3, ..] = right {
-            if skip && j >= CLONE.start && j + 4 <= CLONE.end {
-                j += 4;
-                continue;
+    downdate_block::<0, M, SYMMETRIC>(cols, w);
+    downdate_block::<4, M, SYMMETRIC>(cols, w);
+    downdate_block::<8, M, SYMMETRIC>(cols, w);
+    downdate_block::<12, M, SYMMETRIC>(cols, w);
+    downdate_block::<16, M, SYMMETRIC>(cols, w);
+    downdate_block::<20, M, SYMMETRIC>(cols, w);
+    downdate_block::<24, M, SYMMETRIC>(cols, w);
+    if skip {
+        downdate_tail::<28, { CLONE.start }, M, SYMMETRIC>(cols, w);
+    } else {
+        downdate_block::<28, M, SYMMETRIC>(cols, w);
+        downdate_tail::<32, DIM, M, SYMMETRIC>(cols, w);
+    }
+}
+
+// The blocks above: seven of four columns up to the clone, which starts
+// in the eighth, and the last columns; the clone is the state's last block.
+const _: () = assert!(CLONE.start == 29 && DIM == 35);
+
+/// Columns `J..J + 4` of the Cortex-M downdate: the rows `0..J` above the
+/// block (with `SYMMETRIC`, each entry also stored at its mirror image
+/// `(J.., i)`, contiguous in the column of its row), then the diagonal
+/// block's four rows whole (its lower entries are the same products as its
+/// upper ones, so equal bit for bit).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn downdate_block<const J: usize, const M: usize, const SYMMETRIC: bool>(
+    cols: &mut [[f32; DIM]; DIM],
+    w: &SMatrix<f32, DIM, M>,
+) {
+    let Some((left, [c0, c1, c2, c3, ..])) = cols.split_at_mut_checked(J) else {
+        return;
+    };
+    let a = [
+        row_of(w, J),
+        row_of(w, J + 1),
+        row_of(w, J + 2),
+        row_of(w, J + 3),
+    ];
+    let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
+    let mut rows = rows.zip(c3.iter_mut()).enumerate();
+    // Above the block, with the mirror (`left` first: the zip stops on it
+    // without taking a row).
+    for (mirror, (i, (((p0, p1), p2), p3))) in left.iter_mut().zip(rows.by_ref()) {
+        let v = block_entries(w, i, &a, [*p0, *p1, *p2, *p3]);
+        [*p0, *p1, *p2, *p3] = v;
+        if SYMMETRIC && let Some(dst) = mirror.get_mut(J..J + 4) {
+            dst.copy_from_slice(&v);
+        }
+    }
+    // The diagonal block.
+    for (i, (((p0, p1), p2), p3)) in rows.take(4) {
+        [*p0, *p1, *p2, *p3] = block_entries(w, i, &a, [*p0, *p1, *p2, *p3]);
+    }
+}
+
+/// Columns `J..N` (fewer than four) of the Cortex-M downdate over the rows
+/// `0..N`, with the mirror above the diagonal when `SYMMETRIC`.
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn downdate_tail<const J: usize, const N: usize, const M: usize, const SYMMETRIC: bool>(
+    cols: &mut [[f32; DIM]; DIM],
+    w: &SMatrix<f32, DIM, M>,
+) {
+    let Some((left, right)) = cols.get_mut(..N).and_then(|c| c.split_at_mut_checked(J)) else {
+        return;
+    };
+    for (c, col) in right.iter_mut().enumerate() {
+        let jc = J + c;
+        let wj = row_of(w, jc);
+        let rows = if SYMMETRIC { N } else { jc + 1 };
+        let mut entries = col.iter_mut().enumerate().take(rows);
+        for (mirror, (i, pij)) in left.iter_mut().zip(entries.by_ref()) {
+            let v = entry_minus(*pij, w, i, &wj);
+            *pij = v;
+            if SYMMETRIC && let Some(dst) = mirror.get_mut(jc) {
+                *dst = v;
             }
-            let (a0, a1, a2, a3) = (
-                row_of(w, j),
-                row_of(w, j + 1),
-                row_of(w, j + 2),
-                row_of(w, j + 3),
-            );
-            let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
-            for (i, (((p0, p1), p2), p3)) in rows.zip(c3.iter_mut()).enumerate().take(j + 4) {
-                let wi = row_of(w, i);
-                let mut v = [*p0, *p1, *p2, *p3];
-                for (r, wir) in wi.iter().enumerate() {
-                    let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
-                    v = mul_sub4(v, [at(&a0), at(&a1), at(&a2), at(&a3)], *wir);
-                }
-                [*p0, *p1, *p2, *p3] = v;
-                if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(j..j + 4)) {
-                    dst.copy_from_slice(&v);
-                }
-            }
-            j += 4;
-        } else if let [c0, c1, c2] = right {
-            // The last three columns (35 = 8 x 4 + 3) as one block over all
-            // rows, each row of `W` loaded once for the three (the rows
-            // below the diagonal are the mirror's values, bit for bit;
-            // without `symmetric` the mirror overwrites them anyway).
-            let (a0, a1, a2) = (row_of(w, j), row_of(w, j + 1), row_of(w, j + 2));
-            let rows = c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut());
-            for (i, ((p0, p1), p2)) in rows.enumerate() {
-                let wi = row_of(w, i);
-                let mut v = [*p0, *p1, *p2];
-                for (r, wir) in wi.iter().enumerate() {
-                    let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
-                    let [s0, s1, s2] = v;
-                    v = [s0 - at(&a0) * wir, s1 - at(&a1) * wir, s2 - at(&a2) * wir];
-                }
-                [*p0, *p1, *p2] = v;
-                if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(j..j + 3)) {
-                    dst.copy_from_slice(&v);
-                }
-            }
-            break;
-        } else {
-            for (c, col) in right.iter_mut().enumerate() {
-                let jc = j + c;
-                let wj = row_of(w, jc);
-                let rows = if symmetric { DIM } else { jc + 1 };
-                for (i, pij) in col.iter_mut().enumerate().take(rows) {
-                    let v = entry_minus(*pij, w, i, &wj);
-                    *pij = v;
-                    if symmetric && let Some(dst) = left.get_mut(i).and_then(|c| c.get_mut(jc)) {
-                        *dst = v;
-                    }
-                }
-            }
-            break;
+        }
+        for (i, pij) in entries {
+            *pij = entry_minus(*pij, w, i, &wj);
         }
     }
 }
 
-/// The error-state rows of the pose clone.
+/// Entries `(i, j..j + 4)` of `P - W W^T` from their values `v` and the
+/// rows `a` of `W` of the four columns: `v - W[i, 0] a[..][0] - ...`, in
+/// that order (as [`entry_minus`]).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn block_entries<const M: usize>(
+    w: &SMatrix<f32, DIM, M>,
+    i: usize,
+    a: &[[f32; M]; 4],
+    mut v: [f32; 4],
+) -> [f32; 4] {
+    let [a0, a1, a2, a3] = a;
+    for (r, wir) in row_of(w, i).iter().enumerate() {
+        let at = |a: &[f32; M]| a.get(r).copied().unwrap_or(0.0);
+        v = mul_sub4(v, [at(a0), at(a1), at(a2), at(a3)], *wir);
+    }
+    v
+}
+
+/// The error-state rows of the pose clone: the last ones.
 pub(crate) const CLONE: core::ops::Range<usize> = CP..CTH + 3;
-const _: () = assert!(CTH == CP + 3 && CLONE.end - CLONE.start >= 2);
+const _: () = assert!(CTH == CP + 3 && CLONE.end == DIM);
 
 /// Whether `W` is exactly zero on the clone's rows: then `P - W W^T`
 /// leaves the clone's rows and columns as they are (this is so while the
