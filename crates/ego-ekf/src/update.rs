@@ -621,9 +621,10 @@ pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
 /// vector units each column's rows are taken in blocks of four (rounded up
 /// past the diagonal: the few lower-triangle entries this also updates are
 /// overwritten by the mirror), with one unrolled copy per count of blocks;
-/// on Cortex-M (`target_arch = "arm"`, scalar)
-/// four columns at a time, so that their rows of `W` stay in registers and
-/// each row of `W` is loaded once per four entries.
+/// on Cortex-M (`target_arch = "arm"`, scalar) four columns at a time, so
+/// that their rows of `W` stay in registers and each row of `W` is loaded
+/// once per four entries, and the lower triangle written too (the
+/// symmetric downdate's code: one copy in flash).
 pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
     downdate_upper_with(p, w, clone_rows_zero(w));
 }
@@ -671,8 +672,11 @@ fn downdate_upper_with<const M: usize>(
             }
         }
     }
+    // Cortex-M: both triangles, the same code as the symmetric downdate
+    // (the lower triangle is the mirror's anyway; one copy of the unrolled
+    // blocks in flash instead of two).
     #[cfg(target_arch = "arm")]
-    downdate_blocked::<M, false>(p, w, skip_clone);
+    downdate_blocked(p, w, skip_clone);
 }
 
 /// The first `B` blocks of four rows of a column of [`downdate_upper`],
@@ -718,7 +722,7 @@ fn downdate_symmetric_with<const M: usize>(
         mirror_upper_to_lower(p);
     }
     #[cfg(target_arch = "arm")]
-    downdate_blocked::<M, true>(p, w, skip_clone);
+    downdate_blocked(p, w, skip_clone);
 }
 
 /// The Cortex-M downdate, four columns `j..j + 4` at a time
@@ -726,31 +730,31 @@ fn downdate_symmetric_with<const M: usize>(
 /// 29 = 7 x 4 + 1) over all rows ([`downdate_tail`]). With `skip` (a
 /// decoupled clone), only the states before the clone: the first
 /// `CLONE.start` rows and columns (the clone is the last block of the
-/// state). Every block's columns are constants, so its rows of `W` are
-/// plain loads (a column start known only at run time cost about 140
-/// instructions of checks and address arithmetic per block).
+/// state). Both triangles are written: each entry above the diagonal
+/// also at its mirror image. Every block's columns are constants, so its
+/// rows of `W` and its addresses need no checks: with the column start a
+/// run-time value the wheel update took 1,720 more instructions
+/// (`firmware/profile`: about 289 per block besides its rows, checks
+/// and address arithmetic); the price is flash, about 10 KB per `M`.
 #[cfg(target_arch = "arm")]
-fn downdate_blocked<const M: usize, const SYMMETRIC: bool>(
-    p: &mut Covariance,
-    w: &SMatrix<f32, DIM, M>,
-    skip: bool,
-) {
+#[inline(never)]
+fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>, skip: bool) {
     // With W zero on the clone's rows (a decoupled clone: `skip`), the
     // clone's rows and columns are left as they are: the same bits as
     // subtracting zeros.
     let cols = &mut p.data.0;
-    downdate_block::<0, M, SYMMETRIC>(cols, w);
-    downdate_block::<4, M, SYMMETRIC>(cols, w);
-    downdate_block::<8, M, SYMMETRIC>(cols, w);
-    downdate_block::<12, M, SYMMETRIC>(cols, w);
-    downdate_block::<16, M, SYMMETRIC>(cols, w);
-    downdate_block::<20, M, SYMMETRIC>(cols, w);
-    downdate_block::<24, M, SYMMETRIC>(cols, w);
+    downdate_block::<0, M>(cols, w);
+    downdate_block::<4, M>(cols, w);
+    downdate_block::<8, M>(cols, w);
+    downdate_block::<12, M>(cols, w);
+    downdate_block::<16, M>(cols, w);
+    downdate_block::<20, M>(cols, w);
+    downdate_block::<24, M>(cols, w);
     if skip {
-        downdate_tail::<28, { CLONE.start }, M, SYMMETRIC>(cols, w);
+        downdate_tail::<28, { CLONE.start }, M>(cols, w);
     } else {
-        downdate_block::<28, M, SYMMETRIC>(cols, w);
-        downdate_tail::<32, DIM, M, SYMMETRIC>(cols, w);
+        downdate_block::<28, M>(cols, w);
+        downdate_tail::<32, DIM, M>(cols, w);
     }
 }
 
@@ -759,13 +763,13 @@ fn downdate_blocked<const M: usize, const SYMMETRIC: bool>(
 const _: () = assert!(CLONE.start == 29 && DIM == 35);
 
 /// Columns `J..J + 4` of the Cortex-M downdate: the rows `0..J` above the
-/// block (with `SYMMETRIC`, each entry also stored at its mirror image
-/// `(J.., i)`, contiguous in the column of its row), then the diagonal
+/// block (each entry also stored at its mirror image `(J.., i)`,
+/// contiguous in the column of its row), then the diagonal
 /// block's four rows whole (its lower entries are the same products as its
 /// upper ones, so equal bit for bit).
 #[cfg(target_arch = "arm")]
 #[inline(always)]
-fn downdate_block<const J: usize, const M: usize, const SYMMETRIC: bool>(
+fn downdate_block<const J: usize, const M: usize>(
     cols: &mut [[f32; DIM]; DIM],
     w: &SMatrix<f32, DIM, M>,
 ) {
@@ -785,7 +789,7 @@ fn downdate_block<const J: usize, const M: usize, const SYMMETRIC: bool>(
     for (mirror, (i, (((p0, p1), p2), p3))) in left.iter_mut().zip(rows.by_ref()) {
         let v = block_entries(w, i, &a, [*p0, *p1, *p2, *p3]);
         [*p0, *p1, *p2, *p3] = v;
-        if SYMMETRIC && let Some(dst) = mirror.get_mut(J..J + 4) {
+        if let Some(dst) = mirror.get_mut(J..J + 4) {
             dst.copy_from_slice(&v);
         }
     }
@@ -796,10 +800,10 @@ fn downdate_block<const J: usize, const M: usize, const SYMMETRIC: bool>(
 }
 
 /// Columns `J..N` (fewer than four) of the Cortex-M downdate over the rows
-/// `0..N`, with the mirror above the diagonal when `SYMMETRIC`.
+/// `0..N`, each entry above the diagonal also stored at its mirror image.
 #[cfg(target_arch = "arm")]
 #[inline(always)]
-fn downdate_tail<const J: usize, const N: usize, const M: usize, const SYMMETRIC: bool>(
+fn downdate_tail<const J: usize, const N: usize, const M: usize>(
     cols: &mut [[f32; DIM]; DIM],
     w: &SMatrix<f32, DIM, M>,
 ) {
@@ -809,12 +813,11 @@ fn downdate_tail<const J: usize, const N: usize, const M: usize, const SYMMETRIC
     for (c, col) in right.iter_mut().enumerate() {
         let jc = J + c;
         let wj = row_of(w, jc);
-        let rows = if SYMMETRIC { N } else { jc + 1 };
-        let mut entries = col.iter_mut().enumerate().take(rows);
+        let mut entries = col.iter_mut().enumerate().take(N);
         for (mirror, (i, pij)) in left.iter_mut().zip(entries.by_ref()) {
             let v = entry_minus(*pij, w, i, &wj);
             *pij = v;
-            if SYMMETRIC && let Some(dst) = mirror.get_mut(jc) {
+            if let Some(dst) = mirror.get_mut(jc) {
                 *dst = v;
             }
         }
