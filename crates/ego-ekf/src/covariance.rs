@@ -100,7 +100,8 @@ pub fn reset(p: &mut Covariance, dx: &ErrorState) {
             }
         }
     }
-    // Mirror the rotation-rotation entries (row < column to row > column).
+    // Mirror the rotation-rotation entries (the earlier block's row to the
+    // later one's, whatever their index order).
     for (k, &c) in ROTATION_INDICES.iter().enumerate() {
         for &r in ROTATION_INDICES.iter().skip(k + 1) {
             let upper = cols.get(r).and_then(|col| col.get(c)).copied();

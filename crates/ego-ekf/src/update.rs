@@ -300,9 +300,10 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
         return Err(Reject::Degenerate);
     }
     // `P - W W^T`, then the reset `G P G^T` where it matters (see
-    // [`reset_needed`]), both on the upper triangle; the mirror makes `P`
-    // exactly symmetric. Without a reset, Cortex-M writes both triangles in
-    // the downdate itself (the same bits, no mirror).
+    // [`reset_needed`]), both on the upper triangle (Cortex-M's downdate
+    // writes the lower one too; the mirror overwrites it); the mirror makes
+    // `P` exactly symmetric. Without a reset, Cortex-M writes both triangles
+    // in the downdate itself (the same bits, no mirror).
     if reset_needed(&dx) {
         downdate_upper_with(p, w, skip);
         reset_upper(p, &dx);
@@ -486,7 +487,8 @@ fn forward_substitute<const M: usize, const N: usize>(
 /// the `35 x M` block. Rows in [`CLONE`] are skipped when `skip_clone`
 /// (they are zero and stay so: their correction is zero, their variance
 /// unchanged). On hosts four rows at a time ([`Lanes`]: a column's
-/// consecutive rows), on Cortex-M one.
+/// consecutive rows; only the clone's rows past the last whole block are
+/// skipped, the others computed as the zeros they are), on Cortex-M one.
 fn whiten_rows<const M: usize>(
     l: &SMatrix<f32, M, M>,
     inv_diag: &[f32; M],
@@ -504,16 +506,13 @@ fn whiten_rows<const M: usize>(
     #[cfg(not(target_arch = "arm"))]
     let (first_single, valid) = {
         let mut valid = true;
-        const BLOCKS: usize = DIM / 4;
+        // Whole blocks, also over a skipped clone's rows (zeros stay zeros:
+        // fewer instructions than taking the rows before the clone's block
+        // one by one); the rest row by row below.
+        let blocks = DIM / 4;
         // The corrections times zero: zero while they are all finite.
         let mut lane_zeros = Lanes::<4>::from(0.0);
-        for at in (0..BLOCKS).map(|k| 4 * k) {
-            if skip_clone && at >= CLONE.start && at + 4 <= CLONE.end {
-                for i in at..at + 4 {
-                    valid &= ok(diag(i).unwrap_or(0.0));
-                }
-                continue;
-            }
+        for at in (0..blocks).map(|k| 4 * k) {
             let b = w.data.0.each_ref().map(|c| Lanes::<4>::load(c, at));
             let (v, red, d) = whiten(l, inv_diag, z, b);
             for (c, lanes) in w.data.0.iter_mut().zip(v) {
@@ -525,7 +524,7 @@ fn whiten_rows<const M: usize>(
             lane_zeros = lane_zeros + d * Lanes::from(0.0);
         }
         valid &= lane_zeros.0.iter().fold(true, |all, &a| all & (a == 0.0));
-        (4 * BLOCKS, valid)
+        (4 * blocks, valid)
     };
     #[cfg(target_arch = "arm")]
     let (first_single, valid) = (0, true);
@@ -727,15 +726,16 @@ fn downdate_symmetric_with<const M: usize>(
 
 /// The Cortex-M downdate, four columns `j..j + 4` at a time
 /// ([`downdate_block`]), then the columns left over (35 = 8 x 4 + 3;
-/// 29 = 7 x 4 + 1) over all rows ([`downdate_tail`]). With `skip` (a
-/// decoupled clone), only the states before the clone: the first
-/// `CLONE.start` rows and columns (the clone is the last block of the
-/// state). Both triangles are written: each entry above the diagonal
+/// 29 = 7 x 4 + 1) over all the rows taking part ([`downdate_tail`]).
+/// With `skip` (a decoupled clone), only the states before the clone: the
+/// first `CLONE.start` rows and columns (the clone is the last block of
+/// the state). Both triangles are written: each entry above the diagonal
 /// also at its mirror image. Every block's columns are constants, so its
 /// rows of `W` and its addresses need no checks: with the column start a
 /// run-time value the wheel update took 1,720 more instructions
-/// (`firmware/profile`: about 289 per block besides its rows, checks
-/// and address arithmetic); the price is flash, about 10 KB per `M`.
+/// (`firmware/profile --annotate`: about 289 per block for its setup and
+/// diagonal rows, much of it checks and address arithmetic). The price is
+/// flash: 7 to 16 KB per `M`.
 #[cfg(target_arch = "arm")]
 #[inline(never)]
 fn downdate_blocked<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>, skip: bool) {
@@ -966,15 +966,21 @@ mod tests {
             let red: f32 = reduction.row(i).iter().map(|v| v * v).sum();
             p[(i, i)] = 2.0 * red + 1e-3;
         }
-        // The row (outside the clone) spreads over the host's four-row
-        // blocks and its single last rows (33 for seed 3).
-        let k = (seed as usize * 11) % DIM;
-        if seed.is_multiple_of(3) && !CLONE.contains(&k) {
+        // The row outside the clone spreads over the host's four-row
+        // blocks; the clone's row is in one of them or, every other time,
+        // one of the single last rows.
+        let k = (seed as usize * 11) % CLONE.start;
+        if seed.is_multiple_of(3) {
             let red: f32 = reduction.row(k).iter().map(|v| v * v).sum();
             p[(k, k)] = 0.9 * red;
         }
         if seed.is_multiple_of(5) {
-            p[(CLONE.start + 1, CLONE.start + 1)] = 0.0;
+            let c = if seed.is_multiple_of(2) {
+                CLONE.end - 1
+            } else {
+                CLONE.start + 1
+            };
+            p[(c, c)] = 0.0;
         }
         let mut old = b;
         let (old_dx, old_valid) = four_passes(&l, &inv_diag, &z, &mut old, &p);

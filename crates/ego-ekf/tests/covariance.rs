@@ -3,7 +3,9 @@
 //! against the Joseph form.
 
 use ego_ekf::covariance::{clone_pose, is_positive_definite, reset, skew};
-use ego_ekf::state::{CP, CTH, Covariance, DIM, ErrorState, NominalState, P, Quat, RB, TH, Vec3};
+use ego_ekf::state::{
+    CP, CTH, Covariance, DIM, ErrorState, NominalState, P, Quat, RAD, RB, TH, Vec3,
+};
 use ego_ekf::update::{Measurement, gated_update};
 use nalgebra::{Matrix3, SMatrix, SVector};
 use vslam_core::Reject;
@@ -87,7 +89,7 @@ fn update_matches_joseph_form_and_gates() {
     let mut h = SMatrix::<f32, 3, DIM>::zeros();
     h.fixed_view_mut::<3, 3>(0, 3)
         .copy_from(&Matrix3::identity());
-    h[(0, 33)] = -2.5;
+    h[(0, RAD)] = -2.5;
     h[(1, 7)] = 0.3;
     let noise = SMatrix::<f32, 3, 3>::identity() * 0.01;
     let m = Measurement {
