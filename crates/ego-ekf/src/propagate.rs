@@ -152,32 +152,28 @@ pub fn propagate_covariance_clone_decoupled(p: &mut Covariance, f: &Transition, 
     propagate_blocks::<true>(p, f, q);
 }
 
-/// Rows `lo..hi` of a column (empty outside it).
+/// The first `rows` rows of a column (empty past its end).
 #[inline(always)]
-fn rows_of(lo: usize, hi: usize, column: &[f32; DIM]) -> &[f32] {
-    column.get(lo..hi).unwrap_or(&[])
+fn rows_of(rows: usize, column: &[f32; DIM]) -> &[f32] {
+    column.get(..rows).unwrap_or(&[])
 }
 
 /// Rows of the clone (skipped when decoupled): the last ones.
 const CLONE_ROWS: core::ops::Range<usize> = CP..CP + 6;
 const _: () = assert!(CLONE_ROWS.end == DIM);
 
-/// The rows the column passes visit: all, or all but the clone's (the
-/// clone is the last block of the state).
-const fn row_ranges(skip_clone: bool) -> [(usize, usize); 1] {
-    if skip_clone {
-        [(0, CLONE_ROWS.start)]
-    } else {
-        [(0, DIM)]
-    }
+/// How many rows the column passes visit: all, or all but the clone's
+/// (the clone is the last block of the state).
+const fn rows_visited(skip_clone: bool) -> usize {
+    if skip_clone { CLONE_ROWS.start } else { DIM }
 }
 
 /// The columns of `P F^T` for position, velocity and attitude over the
-/// rows of `ranges` (all rows, or all but a decoupled clone's: skipping
-/// them measured cheaper on Cortex-M; on hosts the whole columns, as one
-/// range, vectorise better), in the order that reads only old values.
+/// first `rows` rows (all, or all but a decoupled clone's: skipping them
+/// measured cheaper on Cortex-M; on hosts the whole columns vectorise
+/// better), in the order that reads only old values.
 #[inline(always)]
-fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]) {
+fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
     {
@@ -204,16 +200,16 @@ fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]
         ] = &mut p.data.0;
         // Columns of `P F^T`, in the order that reads only old values:
         // position (reads velocity), velocity (reads attitude), attitude.
-        for (lo, hi) in ranges {
+        'pass: {
             let (Some(c0), Some(c1), Some(c2)) =
-                (p0.get_mut(lo..hi), p1.get_mut(lo..hi), p2.get_mut(lo..hi))
+                (p0.get_mut(..rows), p1.get_mut(..rows), p2.get_mut(..rows))
             else {
-                continue;
+                break 'pass;
             };
-            let sources = rows_of(lo, hi, v0)
+            let sources = rows_of(rows, v0)
                 .iter()
-                .zip(rows_of(lo, hi, v1))
-                .zip(rows_of(lo, hi, v2));
+                .zip(rows_of(rows, v1))
+                .zip(rows_of(rows, v2));
             for (((c0, c1), c2), ((s0, s1), s2)) in c0
                 .iter_mut()
                 .zip(c1.iter_mut())
@@ -225,24 +221,24 @@ fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]
                 *c2 += dt * s2;
             }
         }
-        for (lo, hi) in ranges {
+        'pass: {
             let (Some(c0), Some(c1), Some(c2)) =
-                (v0.get_mut(lo..hi), v1.get_mut(lo..hi), v2.get_mut(lo..hi))
+                (v0.get_mut(..rows), v1.get_mut(..rows), v2.get_mut(..rows))
             else {
-                continue;
+                break 'pass;
             };
-            let t_rows = rows_of(lo, hi, t0)
+            let t_rows = rows_of(rows, t0)
                 .iter()
-                .zip(rows_of(lo, hi, t1))
-                .zip(rows_of(lo, hi, t2));
-            let a_rows = rows_of(lo, hi, a0)
+                .zip(rows_of(rows, t1))
+                .zip(rows_of(rows, t2));
+            let a_rows = rows_of(rows, a0)
                 .iter()
-                .zip(rows_of(lo, hi, a1))
-                .zip(rows_of(lo, hi, a2));
-            let g_rows = rows_of(lo, hi, g0)
+                .zip(rows_of(rows, a1))
+                .zip(rows_of(rows, a2));
+            let g_rows = rows_of(rows, g0)
                 .iter()
-                .zip(rows_of(lo, hi, g1))
-                .zip(rows_of(lo, hi, g2));
+                .zip(rows_of(rows, g1))
+                .zip(rows_of(rows, g2));
             for (((c0, c1), c2), ((((t0, t1), t2), ((a0, a1), a2)), ((g0, g1), g2))) in c0
                 .iter_mut()
                 .zip(c1.iter_mut())
@@ -256,16 +252,16 @@ fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]
                 (*c0, *c1, *c2) = (v.x, v.y, v.z);
             }
         }
-        for (lo, hi) in ranges {
+        'pass: {
             let (Some(c0), Some(c1), Some(c2)) =
-                (t0.get_mut(lo..hi), t1.get_mut(lo..hi), t2.get_mut(lo..hi))
+                (t0.get_mut(..rows), t1.get_mut(..rows), t2.get_mut(..rows))
             else {
-                continue;
+                break 'pass;
             };
-            let w_rows = rows_of(lo, hi, w0)
+            let w_rows = rows_of(rows, w0)
                 .iter()
-                .zip(rows_of(lo, hi, w1))
-                .zip(rows_of(lo, hi, w2));
+                .zip(rows_of(rows, w1))
+                .zip(rows_of(rows, w2));
             for (((c0, c1), c2), ((w0, w1), w2)) in c0
                 .iter_mut()
                 .zip(c1.iter_mut())
@@ -283,7 +279,7 @@ fn column_passes(p: &mut Covariance, f: &Transition, ranges: [(usize, usize); 1]
 fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
     let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
-    column_passes(p, f, row_ranges(SKIP_CLONE && cfg!(target_arch = "arm")));
+    column_passes(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
     // 0..18 of the new columns (the rows BA, BG, G are final already).
@@ -334,7 +330,7 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
     }
     // Rows 0..9 of the other columns: by symmetry, the new columns' entries
     // (a decoupled clone's columns, the last ones, stay zero there).
-    let end = if SKIP_CLONE { CLONE_ROWS.start } else { DIM };
+    let end = rows_visited(SKIP_CLONE);
     let (imu, rest) = cols.split_at_mut(9);
     for (j, col) in rest.iter_mut().enumerate().take(end - 9) {
         let j = j + 9;
