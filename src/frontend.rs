@@ -5,8 +5,14 @@
 //! Lucas-Kanade from the corners found on the previous frame, a RANSAC
 //! homography on the tracks, its decomposition with the camera intrinsics,
 //! and the selection of the candidate whose plane normal matches the ceiling
-//! (the body's up axis seen from the camera). Corners are found afresh on
-//! every frame, so tracks never drift over more than one frame. A frame with
+//! (the body's up axis seen from the camera). The inliers of a frame pair are
+//! tracked on into the next frame, as in the KLT tracker (Shi and Tomasi 1994,
+//! "Good features to track"); corners are detected afresh only when fewer than
+//! [`FrontEndConfig::redetect_below`] of them are left, or after a failed
+//! pair. Each pair is measured from the patches of its own two frames, so a
+//! carried point that has slid off its corner still gives a correct pair; it is
+//! dropped when its patch stops being trackable (the eigenvalue test) or
+//! disagrees with the homography. A frame with
 //! too few corners of its own whose motion fails (black, saturated, uniform,
 //! blurred) is refused and the reference kept, so the next good frame is
 //! measured against the last good one (at most [`MAX_BRIDGED_FRAMES`] in a row).
@@ -32,6 +38,9 @@ pub const MAX_FEATURES: usize = 200;
 
 /// Points tracked per call of the tracker (the results live on the stack).
 const TRACK_BATCH: usize = 16;
+
+/// Default of [`FrontEndConfig::redetect_below`].
+pub const REDETECT_BELOW: usize = 100;
 
 /// Most consecutive unusable frames (too few corners of their own, and no
 /// motion to the reference) bridged by keeping the reference frame: a black,
@@ -61,6 +70,11 @@ pub struct FrontEndConfig {
     pub prior_max_angle_rad: f32,
     /// Fewest tracked features for a frame pair to be used.
     pub min_tracks: usize,
+    /// Fewest inliers of a frame pair to be tracked on into the next frame;
+    /// with fewer, corners are detected afresh on the current frame. `0`
+    /// never detects while pairs succeed; above [`MAX_FEATURES`] detects on
+    /// every frame.
+    pub redetect_below: usize,
     /// Longest accepted gap between frames, nanoseconds.
     pub max_gap_ns: u64,
     /// Largest `|t/d|` of a frame pair taken as a rotation when the ceiling
@@ -87,6 +101,7 @@ impl FrontEndConfig {
             ransac: RansacParams::default(),
             prior_max_angle_rad: 0.35,
             min_tracks: 12,
+            redetect_below: REDETECT_BELOW,
             max_gap_ns: 1_000_000_000,
             rotation_only_baseline: 0.01,
         }
@@ -165,6 +180,10 @@ pub struct FrontEnd<'b> {
     prior: NormalPrior,
     clock: SampleClock,
     points: HVec<Vec2, MAX_FEATURES>,
+    /// The inliers of the last frame pair, where they are in its second frame.
+    carried: HVec<Vec2, MAX_FEATURES>,
+    /// Frames whose corners were detected.
+    detections: u32,
     counts: SampleCounts,
     last: Option<FrameStats>,
     /// `previous_pyramid` holds the levels of `previous_frame`.
@@ -211,6 +230,8 @@ impl<'b> FrontEnd<'b> {
             prior,
             clock: SampleClock::new(config.max_gap_ns),
             points: HVec::new(),
+            carried: HVec::new(),
+            detections: 0,
             counts: SampleCounts::new(),
             last: None,
             previous_pyramid_ready: false,
@@ -223,6 +244,12 @@ impl<'b> FrontEnd<'b> {
     /// Frames used and refused, by reason.
     pub fn counts(&self) -> &SampleCounts {
         &self.counts
+    }
+
+    /// Frames whose corners were detected; every other processed frame took
+    /// its features from the tracks of the pair before it.
+    pub fn corner_detections(&self) -> u32 {
+        self.detections
     }
 
     /// What the last used frame pair gave.
@@ -262,15 +289,23 @@ impl<'b> FrontEnd<'b> {
                 // Too long since the last frame: start over from this one.
                 let mut corners = [Corner::default(); MAX_FEATURES];
                 let n = self.corners_of(image, &mut corners);
-                self.remember(t, image, corners.get(..n).unwrap_or(&[]));
+                self.remember(t, image);
+                self.set_corners(corners.get(..n).unwrap_or(&[]));
                 return Err(Reject::Gap);
             }
             Err(r) => return Err(r),
         };
+        self.carried.clear();
         let motion = match (first, self.reference_t) {
             (false, Some(t0)) => self.motion_since(t0, t, image),
             _ => Ok(None),
         };
+        if matches!(motion, Ok(Some(_))) && self.carried.len() >= self.config.redetect_below {
+            // Enough inliers to go on with: they are this frame's features.
+            self.remember(t, image);
+            core::mem::swap(&mut self.points, &mut self.carried);
+            return motion;
+        }
         let mut corners = [Corner::default(); MAX_FEATURES];
         let n = self.corners_of(image, &mut corners);
         if motion.is_err() && self.bridges(t, n) {
@@ -279,7 +314,8 @@ impl<'b> FrontEnd<'b> {
             self.bridged += 1;
             return motion;
         }
-        self.remember(t, image, corners.get(..n).unwrap_or(&[]));
+        self.remember(t, image);
+        self.set_corners(corners.get(..n).unwrap_or(&[]));
         motion
     }
 
@@ -298,6 +334,7 @@ impl<'b> FrontEnd<'b> {
 
     /// Corners of `image` into `out`, strongest first; 0 when it has none.
     fn corners_of(&mut self, image: &ImageView<'_>, out: &mut [Corner]) -> usize {
+        self.detections = self.detections.saturating_add(1);
         detect_corners(
             image,
             &self.config.corners,
@@ -401,6 +438,10 @@ impl<'b> FrontEnd<'b> {
         };
         let chosen = chosen.ok_or(Reject::Degenerate)?;
         self.last = Some(stats);
+        for (p, _) in p2.iter().zip(mask.iter()).filter(|(_, inlier)| **inlier) {
+            // As many places as points: this cannot fail.
+            let _ = self.carried.push(*p);
+        }
         CameraMotion::from_point_transfer(
             t0,
             t1,
@@ -414,8 +455,9 @@ impl<'b> FrontEnd<'b> {
         .map_err(|_| Reject::Degenerate)
     }
 
-    /// Keeps `image`, taken at `t`, as the reference frame with its `corners`.
-    fn remember(&mut self, t: Timestamp, image: &ImageView<'_>, corners: &[Corner]) {
+    /// Keeps `image`, taken at `t`, as the reference frame (its features are
+    /// set apart).
+    fn remember(&mut self, t: Timestamp, image: &ImageView<'_>) {
         self.reference_t = Some(t);
         self.bridged = 0;
         // This frame's levels become the previous frame's: swap the storages.
@@ -438,6 +480,10 @@ impl<'b> FrontEnd<'b> {
                 dst.copy_from_slice(src);
             }
         }
+    }
+
+    /// The reference frame's features: its detected `corners`.
+    fn set_corners(&mut self, corners: &[Corner]) {
         self.points.clear();
         for c in corners {
             let _ = self.points.push(c.position());

@@ -602,6 +602,9 @@ pub fn replay_feed(
         },
         "frames": decisions,
         "camera_rejections": camera_rejections,
+        "camera_path": {
+            "corner_detections": est.frontend().map(|f| f.corner_detections()),
+        },
         "surface_timeline": surfaces,
         "events": jolts,
         "final": {
@@ -770,6 +773,12 @@ pub fn summary_table(r: &ReplayOutput) -> String {
         .collect::<Vec<_>>()
         .join(", ");
     s += &format!("\nframe pairs with slip: {slips}\n");
+    if let Some(n) = r.report["camera_path"]["corner_detections"].as_u64() {
+        s += &format!(
+            "corners detected on {n} of {} frames (the others carry the last pair's inliers)\n",
+            r.report["counts"]["camera"]["seen"]
+        );
+    }
     let c = &r.report["counts"];
     s += &format!(
         "gated samples: wheel {}, flow {}; rejected: imu {}, wheel {}, flow {}, camera {}\n",

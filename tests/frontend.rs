@@ -1,15 +1,22 @@
-//! The camera path bridges unusable frames: a black, saturated or uniform
-//! frame between two good ones costs one frame pair, not two, because the
-//! reference frame is kept and the next good frame is measured against it.
+//! The camera path over frame sequences.
+//!
+//! It bridges unusable frames: a black, saturated or uniform frame between
+//! two good ones costs one frame pair, not two, because the reference frame
+//! is kept and the next good frame is measured against it. And it carries the
+//! inliers of a pair into the next one, detecting corners afresh only when
+//! too few are left, with the same motion as when it detects on every frame.
 //! Frames are 320x240 crops of a real photograph (`data/images/gravel.png`,
 //! CC0), shifted by a few pixels between frames.
 
 use host_sim::pngio::load_gray;
 use std::path::Path;
-use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, MAX_BRIDGED_FRAMES};
+use traction::frontend::{
+    FrontEnd, FrontEndBuffers, FrontEndConfig, MAX_BRIDGED_FRAMES, MAX_FEATURES,
+};
 use vslam_core::decompose::PinholeIntrinsics;
 use vslam_core::geometry::Extrinsics;
 use vslam_core::image::ImageView;
+use vslam_core::scale::CameraMotion;
 use vslam_core::{Reject, Timestamp};
 
 const W: usize = 320;
@@ -55,7 +62,23 @@ fn ms(t: u64) -> Timestamp {
 
 /// Runs `frames` (time in ms, pixels) and returns every outcome.
 fn run(frames: &[(u64, Vec<u8>)]) -> Vec<Result<Option<(Timestamp, Timestamp)>, Reject>> {
-    let c = config();
+    run_with(config(), frames)
+        .into_iter()
+        .map(|f| f.outcome.map(|m| m.map(|m| (m.t0(), m.t1()))))
+        .collect()
+}
+
+/// One processed frame.
+struct Frame {
+    outcome: Result<Option<CameraMotion>, Reject>,
+    /// Corners were detected on this frame.
+    detected: bool,
+    /// Inliers of the pair that ended at this frame.
+    inliers: Option<u16>,
+}
+
+/// Runs `frames` with `c` and returns what each gave.
+fn run_with(c: FrontEndConfig, frames: &[(u64, Vec<u8>)]) -> Vec<Frame> {
     let mut b = buffers(&c);
     let mut fe = FrontEnd::new(
         c,
@@ -71,11 +94,24 @@ fn run(frames: &[(u64, Vec<u8>)]) -> Vec<Result<Option<(Timestamp, Timestamp)>, 
         .iter()
         .map(|(t, px)| {
             let view = ImageView::packed(px, W, H).unwrap();
-            fe.process(ms(*t), &view)
-                .map(|m| m.map(|m| (m.t0(), m.t1())))
+            let before = fe.corner_detections();
+            let outcome = fe.process(ms(*t), &view);
+            Frame {
+                inliers: outcome
+                    .as_ref()
+                    .ok()
+                    .and_then(|m| m.as_ref())
+                    .and_then(|_| fe.last_stats())
+                    .map(|s| s.inliers),
+                outcome,
+                detected: fe.corner_detections() > before,
+            }
         })
         .collect();
-    let fused = out.iter().filter(|o| matches!(o, Ok(Some(_)))).count() as u32;
+    let fused = out
+        .iter()
+        .filter(|f| matches!(f.outcome, Ok(Some(_))))
+        .count() as u32;
     assert_eq!(fe.counts().fused(), fused, "every frame pair counted once");
     out
 }
@@ -149,4 +185,81 @@ fn a_good_frame_that_cannot_be_tracked_becomes_the_reference() {
     let out = run(&frames);
     assert!(out[1].is_err(), "{:?}", out[1]);
     assert_eq!(out[2], Ok(Some((ms(100), ms(200)))));
+}
+
+/// Crops shifted by (8, 3) px per frame: some corners leave the window.
+fn drifting(frames: u64) -> Vec<(u64, Vec<u8>)> {
+    (0..frames)
+        .map(|i| (i * 100, crop(8 * i as usize, 3 * i as usize)))
+        .collect()
+}
+
+#[test]
+fn inliers_are_carried_and_corners_detected_only_when_too_few_are_left() {
+    let frames = drifting(12);
+    // Between the per-pair inlier counts of this sequence (about 140 to 200),
+    // so that both branches are taken.
+    let mut c = config();
+    c.redetect_below = 175;
+    let out = run_with(c, &frames);
+    assert!(out[0].detected, "the first frame has nothing to carry");
+    let mut carried = 0;
+    for (i, f) in out.iter().enumerate().skip(1) {
+        let inliers = f
+            .inliers
+            .unwrap_or_else(|| panic!("frame {i}: {:?}", f.outcome));
+        assert_eq!(
+            f.detected,
+            usize::from(inliers) < c.redetect_below,
+            "frame {i}: {inliers} inliers"
+        );
+        carried += usize::from(!f.detected);
+    }
+    assert!(
+        carried > 0 && carried < out.len() - 1,
+        "carried on {carried} frames"
+    );
+}
+
+#[test]
+fn redetect_below_bounds_select_every_frame_or_the_first_only() {
+    let frames = drifting(6);
+    let mut c = config();
+    c.redetect_below = MAX_FEATURES + 1;
+    assert!(run_with(c, &frames).iter().all(|f| f.detected));
+    c.redetect_below = 0;
+    let out = run_with(c, &frames);
+    assert!(out[0].detected);
+    assert!(
+        out[1..]
+            .iter()
+            .all(|f| !f.detected && matches!(f.outcome, Ok(Some(_))))
+    );
+}
+
+#[test]
+fn carried_tracks_give_the_motion_of_fresh_corners() {
+    let frames = drifting(10);
+    let mut every = config();
+    every.redetect_below = MAX_FEATURES + 1;
+    let mut never = config();
+    never.redetect_below = 0;
+    let (a, b) = (run_with(every, &frames), run_with(never, &frames));
+    for (i, (a, b)) in a.iter().zip(&b).enumerate().skip(1) {
+        let (Ok(Some(a)), Ok(Some(b))) = (&a.outcome, &b.outcome) else {
+            panic!("frame {i}: {:?} / {:?}", a.outcome, b.outcome);
+        };
+        let dt = (a.t_over_d() - b.t_over_d()).norm();
+        // Frobenius norm of the difference: about the angle between them.
+        let dr = (a.r().matrix() - b.r().matrix()).norm();
+        assert!(dt < 2e-5, "frame {i}: t/d differs by {dt}");
+        assert!(dr < 2e-5, "frame {i}: rotations differ by {dr}");
+        // sqrt(8² + 3²) px at f = 260 px.
+        let expected = 73f32.sqrt() / 260.0;
+        assert!(
+            (a.t_over_d().norm() - expected).abs() < 5e-4,
+            "frame {i}: {}",
+            a.t_over_d()
+        );
+    }
 }
