@@ -19,7 +19,8 @@ use ego_ekf::propagate::{
 use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{CP, Covariance, DIM, ErrorState, NominalState, Quat, Vec3};
 use ego_ekf::update::{
-    Measurement, Support, downdate, downdate_upper, gated_update, mirror_upper_to_lower,
+    Measurement, Support, downdate, downdate_symmetric, downdate_upper, gated_update,
+    mirror_upper_to_lower,
 };
 use ego_ekf::wheel::model::wheel_measurement;
 use ego_ekf::zupt::model::zupt_measurement;
@@ -241,10 +242,12 @@ fn triangle_downdate_and_mirror_equal_the_full_downdate() {
     for _ in 0..10 {
         let p0 = random_covariance(&mut rng);
         let w = SMatrix::<f32, DIM, 4>::from_fn(|_, _| 0.1 * rng.next());
-        let (mut full, mut triangle) = (p0, p0);
+        let (mut full, mut triangle, mut symmetric) = (p0, p0, p0);
         downdate(&mut full, &w);
         downdate_upper(&mut triangle, &w);
         mirror_upper_to_lower(&mut triangle);
+        downdate_symmetric(&mut symmetric, &w);
+        assert_eq!(symmetric, full);
         assert_eq!(full, full.transpose());
         assert_eq!(triangle, triangle.transpose());
         let expected = p0 - w * w.transpose();
@@ -290,10 +293,12 @@ fn downdate_skipping_a_decoupled_clone_equals_the_full_downdate() {
         if case % 2 == 1 {
             w[(CP + 2, 1)] = 0.05;
         }
-        let (mut full, mut triangle) = (p0, p0);
+        let (mut full, mut triangle, mut symmetric) = (p0, p0, p0);
         downdate(&mut full, &w);
         downdate_upper(&mut triangle, &w);
         mirror_upper_to_lower(&mut triangle);
+        downdate_symmetric(&mut symmetric, &w);
         assert_eq!(triangle, full, "case {case}");
+        assert_eq!(symmetric, full, "case {case}");
     }
 }
