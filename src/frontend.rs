@@ -179,9 +179,9 @@ pub struct FrontEnd<'b> {
     ransac: HomographyRansac<MAX_FEATURES>,
     prior: NormalPrior,
     clock: SampleClock,
+    /// The reference frame's features; after a used pair, its inliers
+    /// where they are in the pair's second frame.
     points: HVec<Vec2, MAX_FEATURES>,
-    /// The inliers of the last frame pair, where they are in its second frame.
-    carried: HVec<Vec2, MAX_FEATURES>,
     /// Frames whose corners were detected.
     detections: u32,
     counts: SampleCounts,
@@ -230,7 +230,6 @@ impl<'b> FrontEnd<'b> {
             prior,
             clock: SampleClock::new(config.max_gap_ns),
             points: HVec::new(),
-            carried: HVec::new(),
             detections: 0,
             counts: SampleCounts::new(),
             last: None,
@@ -295,15 +294,13 @@ impl<'b> FrontEnd<'b> {
             }
             Err(r) => return Err(r),
         };
-        self.carried.clear();
         let motion = match (first, self.reference_t) {
             (false, Some(t0)) => self.motion_since(t0, t, image),
             _ => Ok(None),
         };
-        if matches!(motion, Ok(Some(_))) && self.carried.len() >= self.config.redetect_below {
+        if matches!(motion, Ok(Some(_))) && self.points.len() >= self.config.redetect_below {
             // Enough inliers to go on with: they are this frame's features.
             self.remember(t, image);
-            core::mem::swap(&mut self.points, &mut self.carried);
             return motion;
         }
         let mut corners = [Corner::default(); MAX_FEATURES];
@@ -438,11 +435,7 @@ impl<'b> FrontEnd<'b> {
         };
         let chosen = chosen.ok_or(Reject::Degenerate)?;
         self.last = Some(stats);
-        for (p, _) in p2.iter().zip(mask.iter()).filter(|(_, inlier)| **inlier) {
-            // As many places as points: this cannot fail.
-            let _ = self.carried.push(*p);
-        }
-        CameraMotion::from_point_transfer(
+        let motion = CameraMotion::from_point_transfer(
             t0,
             t1,
             chosen.rotation,
@@ -451,8 +444,16 @@ impl<'b> FrontEnd<'b> {
             report.inlier_ratio(),
             report.rms_error_px,
         )
-        .map(Some)
-        .map_err(|_| Reject::Degenerate)
+        .map_err(|_| Reject::Degenerate)?;
+        // The pair is used: its inliers, where they are in this frame, are
+        // the features to carry on (until then `points` stayed the
+        // reference's, for a failed pair that is bridged).
+        self.points.clear();
+        for (p, _) in p2.iter().zip(mask.iter()).filter(|(_, inlier)| **inlier) {
+            // As many places as points: this cannot fail.
+            let _ = self.points.push(*p);
+        }
+        Ok(Some(motion))
     }
 
     /// Keeps `image`, taken at `t`, as the reference frame (its features are
