@@ -2,25 +2,35 @@
 //! upward camera to the camera motion the scale pipeline needs.
 //!
 //! Per frame: pyramids of the previous and the current frame, pyramidal
-//! Lucas-Kanade from the corners found on the previous frame, a RANSAC
-//! homography on the tracks, its decomposition with the camera intrinsics,
-//! and the selection of the candidate whose plane normal matches the ceiling
-//! (the body's up axis seen from the camera). The inliers of a frame pair are
-//! tracked on into the next frame, as in the KLT tracker (Shi and Tomasi 1994,
-//! "Good features to track"); corners are detected afresh only when fewer than
-//! [`FrontEndConfig::redetect_below`] of them are left, or after a failed
-//! pair. Each pair is measured from the patches of its own two frames, so a
-//! carried point that has slid off its corner still gives a correct pair; it is
-//! dropped when its patch stops being trackable (the eigenvalue test) or
-//! disagrees with the homography. A frame with
-//! too few corners of its own whose motion fails (black, saturated, uniform,
-//! blurred) is refused and the reference kept, so the next good frame is
-//! measured against the last good one (at most [`MAX_BRIDGED_FRAMES`] in a row).
+//! Lucas-Kanade from the previous frame's features, a RANSAC homography on
+//! the tracks, its decomposition with the camera intrinsics, and the
+//! selection of the candidate whose plane normal matches the ceiling (the
+//! body's up axis seen from the camera).
+//!
+//! The features: as in the KLT tracker (Shi and Tomasi 1994, "Good features
+//! to track"), the inliers of a used frame pair, where they are in its second
+//! frame, are tracked on into the next frame. Corners are detected afresh on
+//! the first frame, after a gap, after a failed pair, and when fewer than
+//! [`FrontEndConfig::redetect_below`] (at least
+//! [`FrontEndConfig::min_tracks`]) inliers are left (they are kept if the
+//! detector finds fewer than `min_tracks` corners). A carried point is
+//! dropped when the tracker loses it (window out of the image, too little
+//! texture, too large a residual) or when it disagrees with the homography. Each pair is measured from the
+//! patches of its own two frames, but a carried point sits wherever the last
+//! pair put it, not on a corner, and at a sub-pixel phase that changes from
+//! frame to frame; on the simulated office runs this made single pairs
+//! noisier and the trajectory more accurate (`benches/README.md`, session 7).
+//!
+//! A frame with too few corners of its own whose motion fails (black,
+//! saturated, uniform, blurred) is refused and the reference kept, so the
+//! next good frame is measured against the last good one (at most
+//! [`MAX_BRIDGED_FRAMES`] in a row).
 //!
 //! Memory is the caller's: [`FrontEndBuffers`] borrows one frame copy, two
-//! pyramid storages (swapped each frame, so every pyramid is built once) and the corner detector's scratch, sized by
-//! [`FrontEndBuffers::sizes`], so firmware can place them in statics and a
-//! host in heap vectors. Nothing here allocates.
+//! pyramid storages (swapped each frame, so every pyramid is built once) and
+//! the corner detector's scratch, sized by [`FrontEndBuffers::sizes`], so
+//! firmware can place them in statics and a host in heap vectors. Nothing
+//! here allocates.
 
 use heapless::Vec as HVec;
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
@@ -70,9 +80,11 @@ pub struct FrontEndConfig {
     pub prior_max_angle_rad: f32,
     /// Fewest tracked features for a frame pair to be used.
     pub min_tracks: usize,
-    /// Fewest inliers of a frame pair to be tracked on into the next frame;
-    /// with fewer, corners are detected afresh on the current frame. `0`
-    /// never detects while pairs succeed; above [`MAX_FEATURES`] detects on
+    /// Fewest inliers of a frame pair to be tracked on into the next frame
+    /// alone; with fewer (or fewer than `min_tracks`), corners are detected
+    /// on the current frame and replace them (unless fewer than `min_tracks`
+    /// are found). At `min_tracks` or below, corners are detected only when a pair fails
+    /// or keeps fewer than `min_tracks` inliers; above [`MAX_FEATURES`], on
     /// every frame.
     pub redetect_below: usize,
     /// Longest accepted gap between frames, nanoseconds.
@@ -161,7 +173,7 @@ impl core::error::Error for FrontEndError {}
 /// What one frame pair gave, for reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameStats {
-    /// Corners tracked from the previous frame.
+    /// Features tracked from the previous frame.
     pub tracked: u16,
     /// RANSAC inliers among them.
     pub inliers: u16,
@@ -245,10 +257,17 @@ impl<'b> FrontEnd<'b> {
         &self.counts
     }
 
-    /// Frames whose corners were detected; every other processed frame took
-    /// its features from the tracks of the pair before it.
+    /// Frames on which corners were detected (whether or not they were kept:
+    /// a bridged frame's are not, nor too few to track after a used pair).
+    /// The other frames used took their features from the pair before them.
     pub fn corner_detections(&self) -> u32 {
         self.detections
+    }
+
+    /// The features (pixel positions in the reference frame) the next frame
+    /// is tracked from.
+    pub fn features(&self) -> &[Vec2] {
+        &self.points
     }
 
     /// What the last used frame pair gave.
@@ -298,7 +317,11 @@ impl<'b> FrontEnd<'b> {
             (false, Some(t0)) => self.motion_since(t0, t, image),
             _ => Ok(None),
         };
-        if matches!(motion, Ok(Some(_))) && self.points.len() >= self.config.redetect_below {
+        // After a used pair (`Ok(Some)`), `points` holds its inliers in this
+        // frame, which every branch below makes the reference.
+        let used = matches!(motion, Ok(Some(_)));
+        let enough = self.config.redetect_below.max(self.config.min_tracks);
+        if used && self.points.len() >= enough {
             // Enough inliers to go on with: they are this frame's features.
             self.remember(t, image);
             return motion;
@@ -312,7 +335,11 @@ impl<'b> FrontEnd<'b> {
             return motion;
         }
         self.remember(t, image);
-        self.set_corners(corners.get(..n).unwrap_or(&[]));
+        // Fresh corners replace the inliers, unless the detector found too few
+        // to track (a frame with little texture that still tracked).
+        if !(used && n < self.config.min_tracks) {
+            self.set_corners(corners.get(..n).unwrap_or(&[]));
+        }
         motion
     }
 

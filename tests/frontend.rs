@@ -15,6 +15,7 @@ use traction::frontend::{
 };
 use vslam_core::decompose::PinholeIntrinsics;
 use vslam_core::geometry::Extrinsics;
+use vslam_core::geometry::Vec2;
 use vslam_core::image::ImageView;
 use vslam_core::scale::CameraMotion;
 use vslam_core::{Reject, Timestamp};
@@ -75,6 +76,8 @@ struct Frame {
     detected: bool,
     /// Inliers of the pair that ended at this frame.
     inliers: Option<u16>,
+    /// The features the next frame is tracked from.
+    features: Vec<Vec2>,
 }
 
 /// Runs `frames` with `c` and returns what each gave.
@@ -105,6 +108,7 @@ fn run_with(c: FrontEndConfig, frames: &[(u64, Vec<u8>)]) -> Vec<Frame> {
                     .map(|s| s.inliers),
                 outcome,
                 detected: fe.corner_detections() > before,
+                features: fe.features().to_vec(),
             }
         })
         .collect();
@@ -262,4 +266,30 @@ fn carried_tracks_give_the_motion_of_fresh_corners() {
             a.t_over_d()
         );
     }
+}
+
+#[test]
+fn carried_features_are_where_the_last_pair_tracked_them_to() {
+    let frames = drifting(8);
+    let out = run_with(config(), &frames);
+    let mut carried = 0;
+    for (k, pair) in out.windows(2).enumerate() {
+        let [before, now] = pair else { unreachable!() };
+        if now.detected {
+            continue;
+        }
+        carried += 1;
+        // One per inlier, each the image of a feature of the frame before:
+        // the content moves by (-8, -3) px from crop to crop.
+        assert_eq!(now.features.len(), usize::from(now.inliers.unwrap()));
+        for f in &now.features {
+            let nearest = before
+                .features
+                .iter()
+                .map(|g| (f - (g - Vec2::new(8.0, 3.0))).norm())
+                .fold(f32::INFINITY, f32::min);
+            assert!(nearest < 0.05, "frame {}: {f} is {nearest} px off", k + 1);
+        }
+    }
+    assert!(carried >= 5, "carried on {carried} of 7 pairs");
 }

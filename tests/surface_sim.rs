@@ -93,6 +93,7 @@ fn strips_are_explained_and_the_cable_is_an_obstacle() {
         false,
         ReplayOptions {
             surface_model: false,
+            ..ReplayOptions::default()
         },
     )
     .unwrap();

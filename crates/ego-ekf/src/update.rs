@@ -324,9 +324,31 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
 /// 3) four rows at a time. The strided entry-by-entry copy cost about
 /// twice as many instructions (callgrind, `examples/ekf_steps`).
 pub fn mirror_upper_to_lower(p: &mut Covariance) {
+    mirror_leading(p, DIM);
+}
+
+/// [`mirror_upper_to_lower`] on the leading `n x n` block only (`n <= DIM`;
+/// the rest is left as it is): the columns past the block's last whole
+/// 4x4 block entry by entry, unless `n = DIM`.
+fn mirror_leading(p: &mut Covariance, n: usize) {
     const QUADS: usize = DIM / 4;
+    if n < DIM {
+        let first = 4 * (n / 4);
+        let cols = &mut p.data.0;
+        for j in first..n {
+            let Some((left, [col, ..])) = cols.split_at_mut_checked(j) else {
+                continue;
+            };
+            // Entry (i, j) above the diagonal, in column j, to (j, i).
+            for (dst, &v) in left.iter_mut().zip(col.iter()) {
+                if let Some(d) = dst.get_mut(j) {
+                    *d = v;
+                }
+            }
+        }
+    }
     let (quads, last) = p.data.0.as_chunks_mut::<4>();
-    for bj in 0..quads.len() {
+    for bj in 0..quads.len().min(n / 4) {
         let Some((left, right)) = quads.split_at_mut_checked(bj) else {
             continue;
         };
@@ -367,7 +389,7 @@ pub fn mirror_upper_to_lower(p: &mut Covariance) {
     // The last columns' rows above the diagonal go to the last rows of the
     // columns on their left, four rows (one column quad) at a time.
     const _: () = assert!(DIM - 4 * QUADS == 3);
-    if let [l0, l1, l2] = last {
+    if let ([l0, l1, l2], true) = (last, n == DIM) {
         let blocks = l0.as_chunks::<4>().0.iter();
         let blocks = blocks.zip(l1.as_chunks::<4>().0).zip(l2.as_chunks::<4>().0);
         for (dst, ((b0, b1), b2)) in quads.iter_mut().zip(blocks) {
@@ -718,7 +740,9 @@ fn downdate_symmetric_with<const M: usize>(
     #[cfg(not(target_arch = "arm"))]
     {
         downdate_upper_with(p, w, skip_clone);
-        mirror_upper_to_lower(p);
+        // A decoupled clone's rows and columns were left as they were
+        // (symmetric): only the states before it need the mirror.
+        mirror_leading(p, if skip_clone { CLONE.start } else { DIM });
     }
     #[cfg(target_arch = "arm")]
     downdate_blocked(p, w, skip_clone);

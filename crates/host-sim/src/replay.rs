@@ -213,13 +213,18 @@ pub struct ReplayOptions {
     /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
     /// grip and one fixed jolt threshold, for comparison.
     pub surface_model: bool,
+    /// The camera path's [`FrontEndConfig::redetect_below`] (fewest inliers
+    /// carried into the next frame before corners are detected afresh);
+    /// `None` for its default.
+    pub redetect_below: Option<usize>,
 }
 
 impl Default for ReplayOptions {
-    /// The surface model on.
+    /// The surface model on, the camera path's defaults.
     fn default() -> Self {
         ReplayOptions {
             surface_model: true,
+            redetect_below: None,
         }
     }
 }
@@ -370,7 +375,13 @@ pub fn replay_feed(
         .map(|(m, _)| {
             let [fu, fv, cu, cv] = m.intrinsics.map(|v| v as f32);
             PinholeIntrinsics::new(fu, fv, cu, cv)
-                .map(|k| FrontEndConfig::new(w, h, k, camera_mount))
+                .map(|k| {
+                    let mut c = FrontEndConfig::new(w, h, k, camera_mount);
+                    if let Some(n) = options.redetect_below {
+                        c.redetect_below = n;
+                    }
+                    c
+                })
                 .map_err(|e| CliError::file(&yaml("cam0"), format!("`intrinsics`: {e:?}")))
         })
         .transpose()?;
@@ -460,6 +471,9 @@ pub fn replay_feed(
     let mut vslam = Vec::new();
     let mut surfaces = Vec::new();
     let mut camera_rejections: Vec<Value> = Vec::new();
+    // Frames given to the camera path (the first of a run is no pair, so
+    // the camera counts' `seen` is one fewer).
+    let mut camera_frames = 0u64;
     // Every jolt as it is judged: the monitor's own log keeps only the last
     // few, a report keeps them all.
     let mut jolt_events: Vec<JoltEvent> = Vec::new();
@@ -518,6 +532,7 @@ pub fn replay_feed(
                     .view()
                     .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
                 let outcome = est.process_camera(*t, &view);
+                camera_frames += 1;
                 outcomes.push((
                     Stream::Camera,
                     *t,
@@ -603,6 +618,7 @@ pub fn replay_feed(
         "frames": decisions,
         "camera_rejections": camera_rejections,
         "camera_path": {
+            "frames": camera_frames,
             "corner_detections": est.frontend().map(|f| f.corner_detections()),
         },
         "surface_timeline": surfaces,
@@ -776,7 +792,7 @@ pub fn summary_table(r: &ReplayOutput) -> String {
     if let Some(n) = r.report["camera_path"]["corner_detections"].as_u64() {
         s += &format!(
             "corners detected on {n} of {} frames (the others carry the last pair's inliers)\n",
-            r.report["counts"]["camera"]["seen"]
+            r.report["camera_path"]["frames"]
         );
     }
     let c = &r.report["counts"];

@@ -2,7 +2,7 @@
 
 use crate::error::CliError;
 use crate::faults::{FaultPlan, kinds_help};
-use crate::replay::{ReplayOutput, run_replay, summary_table};
+use crate::replay::{ReplayOptions, ReplayOutput, run_replay_with, summary_table};
 use crate::sim::scenario::SCENARIOS;
 use crate::simulate::{run_simulate, run_simulate_faults};
 use clap::Args;
@@ -60,6 +60,11 @@ pub struct ReplayArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Fewest inliers of a frame pair carried into the next frame before
+    /// corners are detected afresh (default 100; 0: only when a pair fails;
+    /// above 200: on every frame).
+    #[arg(long, value_name = "N")]
+    pub redetect_below: Option<usize>,
 }
 
 fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
@@ -117,7 +122,11 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 
 /// Runs `replay`.
 pub fn run_replay_cmd(a: ReplayArgs) -> Result<(), CliError> {
-    let r = run_replay(&a.dataset, &a.out, std::io::stderr().is_terminal())?;
+    let options = ReplayOptions {
+        redetect_below: a.redetect_below,
+        ..ReplayOptions::default()
+    };
+    let r = run_replay_with(&a.dataset, &a.out, std::io::stderr().is_terminal(), options)?;
     print_summary(&r, &a.out);
     Ok(())
 }
