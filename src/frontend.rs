@@ -15,11 +15,12 @@
 //! [`FrontEndConfig::min_tracks`]) inliers are left (they are kept if the
 //! detector finds fewer than `min_tracks` corners). A carried point is
 //! dropped when the tracker loses it (window out of the image, too little
-//! texture, too large a residual) or when it disagrees with the homography. Each pair is measured from the
-//! patches of its own two frames, but a carried point sits wherever the last
-//! pair put it, not on a corner, and at a sub-pixel phase that changes from
-//! frame to frame; on the simulated office runs this made single pairs
-//! noisier and the trajectory more accurate (`benches/README.md`, session 7).
+//! texture, too large a residual) or when it disagrees with the homography.
+//! Each pair is measured from the patches of its own two frames, but a
+//! carried point sits wherever the last pair put it, not on a corner, and at
+//! a sub-pixel phase that changes from frame to frame; on the simulated
+//! office and slip runs this made single pairs noisier and the minute-long
+//! trajectories more accurate (`benches/README.md`, session 7).
 //!
 //! A frame with too few corners of its own whose motion fails (black,
 //! saturated, uniform, blurred) is refused and the reference kept, so the
@@ -83,9 +84,9 @@ pub struct FrontEndConfig {
     /// Fewest inliers of a frame pair to be tracked on into the next frame
     /// alone; with fewer (or fewer than `min_tracks`), corners are detected
     /// on the current frame and replace them (unless fewer than `min_tracks`
-    /// are found). At `min_tracks` or below, corners are detected only when a pair fails
-    /// or keeps fewer than `min_tracks` inliers; above [`MAX_FEATURES`], on
-    /// every frame.
+    /// are found). At `min_tracks` or below, corners are detected only when
+    /// a pair fails or keeps fewer than `min_tracks` inliers; above
+    /// [`MAX_FEATURES`], on every frame.
     pub redetect_below: usize,
     /// Longest accepted gap between frames, nanoseconds.
     pub max_gap_ns: u64,
