@@ -62,6 +62,21 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
+#[cfg(not(target_arch = "arm"))]
+impl<const N: usize> Lanes<N> {
+    /// The lane-wise minimum `if a < b { a } else { b }` (x86's `minps`;
+    /// with a NaN in a lane, `b`'s value: callers that care about NaNs
+    /// test for them apart).
+    #[inline(always)]
+    pub(crate) fn min(self, b: Self) -> Self {
+        let mut out = self.0;
+        for (o, r) in out.iter_mut().zip(b.0) {
+            *o = if *o < r { *o } else { r };
+        }
+        Lanes(out)
+    }
+}
+
 macro_rules! lane_op {
     ($trait:ident, $method:ident, $op:tt) => {
         #[cfg(not(target_arch = "arm"))]
@@ -122,6 +137,14 @@ mod tests {
         for l in 0..4 {
             assert_eq!(got.0[l], (a.0[l] * b.0[l] - 0.7) + a.0[l]);
         }
+    }
+
+    #[test]
+    fn the_minimum_is_taken_lane_by_lane() {
+        let a = Lanes([1.5f32, -2.0, 3.25, f32::INFINITY]);
+        let b = Lanes([0.1f32, 7.0, 3.25, 2.0]);
+        assert_eq!(a.min(b).0, [0.1, -2.0, 3.25, 2.0]);
+        assert_eq!(b.min(a).0, [0.1, -2.0, 3.25, 2.0]);
     }
 
     #[test]
