@@ -1016,6 +1016,12 @@ mod tests {
             let red: f32 = reduction.row(k).iter().map(|v| v * v).sum();
             p[(k, k)] = 0.9 * red;
         }
+        // A variance that is not finite: infinite or NaN.
+        if seed.is_multiple_of(11) {
+            p[(k, k)] = f32::INFINITY;
+        } else if seed.is_multiple_of(13) {
+            p[(k, k)] = f32::NAN;
+        }
         if seed.is_multiple_of(5) {
             let c = if seed.is_multiple_of(2) {
                 CLONE.end - 1
