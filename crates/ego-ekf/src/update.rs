@@ -417,7 +417,17 @@ fn mirror_leading(p: &mut Covariance, n: usize) {
     }
 }
 
+/// The transpose of a 4x4 block given by its columns: on hosts with SSE in
+/// eight shuffles ([`wide::f32x4::transpose`]; written out entry by entry,
+/// the compiler moved every entry on its own: two scalar moves each).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn transpose4(a: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
+    wide::f32x4::transpose(a.map(wide::f32x4::new)).map(|v| v.to_array())
+}
+
 /// The transpose of a 4x4 block given by its columns.
+#[cfg(target_arch = "arm")]
 #[inline(always)]
 fn transpose4(a: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
     let [
