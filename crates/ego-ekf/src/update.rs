@@ -656,7 +656,7 @@ pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
 /// two agree bit for bit, and the host with the firmware). On hosts with
 /// vector units each column's rows are taken in blocks of four (rounded up
 /// past the diagonal: the few lower-triangle entries this also updates are
-/// overwritten by the mirror), with one unrolled copy per count of blocks;
+/// overwritten by the mirror), in a loop (not unrolled: see below);
 /// on Cortex-M (`target_arch = "arm"`, scalar) four columns at a time, so
 /// that their rows of `W` stay in registers and each row of `W` is loaded
 /// once per four entries, and the lower triangle written too (the
@@ -678,42 +678,39 @@ fn downdate_upper_with<const M: usize>(
         // rows `4k..4k + 4` of column `r`.
         let wb: [[Lanes<4>; M]; DIM / 4] =
             core::array::from_fn(|k| w.data.0.each_ref().map(|c| Lanes::load(c, 4 * k)));
-        // Column quads `4q..4q + 4`, each column's blocks down to the one
-        // holding its diagonal: `q + 1`, a count known at compile time in
-        // each quad (unrolled, unchecked; with a jump table per column
-        // the wheel step took 546 more instructions, callgrind). With W zero on the clone's rows (a
-        // decoupled clone), its columns are left as they are: the same
-        // bits as subtracting zeros. The clone starts at column 29, the
-        // second of the eighth quad.
+        // Each column's blocks down to the one holding its diagonal: `j / 4
+        // + 1` for column `j`, a loop, not unrolled. Unrolled per quad of
+        // columns (session 8) the wheel step took 570 fewer instructions
+        // but the downdate's code was 15 KB for each `M`, executed once
+        // per update: with it the update's straight-line code no longer
+        // fitted the instruction caches, and run side by side on the two
+        // cores the loop was faster in most rounds (see
+        // `benches/README.md`, session 9). With W zero on the clone's rows
+        // (a decoupled clone), its columns are left as they are: the same
+        // bits as subtracting zeros. The clone starts at column 29.
         const _: () = assert!(CLONE.start == 29 && DIM == 35);
         let (quads, last) = p.data.0.as_chunks_mut::<4>();
-        macro_rules! quad {
-            ($q:literal, $columns:expr) => {
-                if let Some(quad) = quads.get_mut($q) {
-                    for (t, col) in quad.iter_mut().enumerate().take($columns) {
-                        downdate_blocks::<{ $q + 1 }, M>(col, &wb, row_of(w, 4 * $q + t));
-                    }
-                }
-            };
-        }
-        quad!(0, 4);
-        quad!(1, 4);
-        quad!(2, 4);
-        quad!(3, 4);
-        quad!(4, 4);
-        quad!(5, 4);
-        quad!(6, 4);
-        if skip_clone {
-            quad!(7, 1);
+        let columns = if skip_clone {
+            CLONE.start
         } else {
-            quad!(7, 4);
+            4 * (DIM / 4)
+        };
+        for (j, col) in quads
+            .as_flattened_mut()
+            .iter_mut()
+            .enumerate()
+            .take(columns)
+        {
+            downdate_column(col, &wb, row_of(w, j), j / 4 + 1);
+        }
+        if !skip_clone {
             // The last three columns: eight blocks, then their rows past
             // the last whole block down to the diagonal.
             let first = 4 * (DIM / 4);
             for (t, col) in last.iter_mut().enumerate() {
                 let j = first + t;
                 let wj = row_of(w, j);
-                downdate_blocks::<8, M>(col, &wb, wj);
+                downdate_column(col, &wb, wj, DIM / 4);
                 if let Some(rows) = col.get_mut(first..=j) {
                     for (r, pij) in rows.iter_mut().enumerate() {
                         *pij = entry_minus(*pij, w, first + r, &wj);
@@ -729,19 +726,18 @@ fn downdate_upper_with<const M: usize>(
     downdate_blocked(p, w, skip_clone);
 }
 
-/// The first `B` blocks of four rows of a column of [`downdate_upper`],
-/// given `W` in blocks (`wb`) and the column's row of `W` (`wj`).
+/// The first `blocks` blocks of four rows of a column of
+/// [`downdate_upper`], given `W` in blocks (`wb`) and the column's row of
+/// `W` (`wj`).
 #[cfg(not(target_arch = "arm"))]
 #[inline(always)]
-fn downdate_blocks<const B: usize, const M: usize>(
+fn downdate_column<const M: usize>(
     col: &mut [f32; DIM],
     wb: &[[Lanes<4>; M]; DIM / 4],
     wj: [f32; M],
+    blocks: usize,
 ) {
-    let Some(blocks) = col.as_chunks_mut::<4>().0.get_mut(..B) else {
-        return;
-    };
-    for (block, wk) in blocks.iter_mut().zip(wb) {
+    for (block, wk) in col.as_chunks_mut::<4>().0.iter_mut().zip(wb).take(blocks) {
         let mut v = Lanes(*block);
         for (w_r, a) in wk.iter().zip(wj) {
             v = v - *w_r * Lanes::from(a);
