@@ -680,11 +680,10 @@ fn downdate_upper_with<const M: usize>(
             core::array::from_fn(|k| w.data.0.each_ref().map(|c| Lanes::load(c, 4 * k)));
         // Each column's blocks down to the one holding its diagonal: `j / 4
         // + 1` for column `j`, a loop, not unrolled. Unrolled per quad of
-        // columns (session 8) the wheel step took 570 fewer instructions
-        // but the downdate's code was 15 KB for each `M`, executed once
-        // per update: with it the update's straight-line code no longer
-        // fitted the instruction caches, and run side by side on the two
-        // cores the loop was faster in most rounds (see
+        // columns (session 8) the wheel step took 570 fewer instructions,
+        // but the function was 15.3 KB instead of 1.2 KB, and run side by
+        // side with the loop on the other core the 3-D update was slower
+        // in 22 of 30 rounds (the 4-row wheel update: no difference; see
         // `benches/README.md`, session 9). With W zero on the clone's rows
         // (a decoupled clone), its columns are left as they are: the same
         // bits as subtracting zeros. The clone starts at column 29.
