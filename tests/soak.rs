@@ -31,7 +31,10 @@
 //! vslam-core and host-sim are optimised there too) runs the hour as well:
 //! `cargo test -p traction --test soak -- --ignored --nocapture`.
 //!
-//! # Last result (x86_64, 2026-11-22, test profile, session 3's final `main`)
+//! # Result (x86_64, test profile, measured 2026-11-22)
+//!
+//! Figures of the code of that date; the command above measures the current
+//! code.
 //!
 //! 900,000 IMU steps (3600 s, 57 laps) in 11.4 s wall; 3600 checks passed.
 //! Resident set 12,932 KiB after 2 laps, 12,948 KiB at the end; estimator
