@@ -27,7 +27,7 @@ use traction::vslam_core::image::ImageView;
 use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
 use traction::vslam_core::sensors::{FlowOptics, ImuSample};
-use traction::vslam_core::{Reject, SampleCounts};
+use traction::vslam_core::{PerStream, Reject, SampleCounts};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 use crate::frames;
@@ -196,8 +196,9 @@ pub struct Summary {
     pub scale: ScalePipeline<TRAJECTORY>,
     /// IMU samples refused by the range check before the filter.
     pub imu_invalid: SampleCounts,
-    /// Records of each kind: IMU, wheel, flow, camera.
-    pub records: [u32; 4],
+    /// Records of each stream (the sample format carries IMU, wheel, flow
+    /// and camera records; the other streams stay at zero).
+    pub records: PerStream<u32>,
     /// Camera motions that got a scale.
     pub scaled_frames: u32,
 }
@@ -211,25 +212,23 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
     let mut scale: ScalePipeline<TRAJECTORY> =
         ScalePipeline::new(cfg.scale).map_err(|_| RunError::Config("scale pipeline"))?;
     let mut imu_invalid = SampleCounts::new();
-    let mut counts = [0u32; 4];
+    let mut counts = PerStream::splat(0u32);
     let mut scaled_frames = 0u32;
     let (gyro_max, accel_max) = (cfg.filter.imu_gyro_max, cfg.filter.imu_accel_max);
     for record in records {
-        match record.map_err(RunError::Format)? {
-            Record::Imu(raw) => {
-                counts[0] += 1;
-                match ImuSample::with_range(&raw, gyro_max, accel_max) {
-                    Ok(s) => {
-                        let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
-                        if step.is_ok() {
-                            let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
-                        }
+        let record = record.map_err(RunError::Format)?;
+        counts[record.stream()] += 1;
+        match record {
+            Record::Imu(raw) => match ImuSample::with_range(&raw, gyro_max, accel_max) {
+                Ok(s) => {
+                    let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
+                    if step.is_ok() {
+                        let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
                     }
-                    Err(r) => imu_invalid.rejected_one(r),
                 }
-            }
+                Err(r) => imu_invalid.rejected_one(r),
+            },
             Record::Wheel(ticks) => {
-                counts[1] += 1;
                 let step = probe.measure(Step::Odometry, || odometry.update(ticks));
                 if let Ok(Some(step)) = step {
                     let _ = probe.measure(Step::ScaleWheel, || scale.push_wheel(&step.delta));
@@ -237,12 +236,10 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
                 }
             }
             Record::Flow(s) => {
-                counts[2] += 1;
                 let _ = probe.measure(Step::ScaleFlow, || scale.push_flow(&s));
                 let _ = probe.measure(Step::FuseFlow, || ekf.fuse_flow(&s));
             }
             Record::Camera(m) => {
-                counts[3] += 1;
                 let d = probe.measure(Step::ScaleCamera, || scale.push_camera(&m));
                 if matches!(d, Ok(ref d) if d.scale.is_ok()) {
                     scaled_frames += 1;
@@ -445,7 +442,7 @@ impl Summary {
             f(name, &counts(&self.scale.counts(kind)));
         }
         f("odometry.counts", &counts(self.odometry.counts()));
-        f("records", &self.records.map(Value::N));
+        f("records", &self.records.as_array().map(Value::N));
         f(
             "imu.invalid",
             &[
