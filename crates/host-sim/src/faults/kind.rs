@@ -418,3 +418,30 @@ impl FaultKind {
         self.default_duration() > 0.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_fault_names_a_stream_of_the_registry_or_the_motion() {
+        for k in FaultKind::ALL {
+            match k.target() {
+                Target::Stream(s) => {
+                    assert_eq!(Stream::from_name(k.target().name()), Some(s));
+                    assert_eq!(k.stream(), Some(s));
+                }
+                Target::Motion => {
+                    assert_eq!(k.target().name(), "motion");
+                    assert_eq!(k.stream(), None);
+                }
+            }
+        }
+        // Time faults hit the buffered streams, named as the registry names them.
+        for x in [Sensor::Imu, Sensor::Wheel, Sensor::Flow] {
+            let name = FaultKind::Late(x).name();
+            assert_eq!(name, format!("{}-late", x.stream().name()));
+            assert_eq!(FaultKind::from_name(&name), Some(FaultKind::Late(x)));
+        }
+    }
+}
