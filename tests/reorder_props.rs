@@ -5,7 +5,7 @@
 use proptest::prelude::*;
 use traction::reorder::{Event, Pushed, Reorder};
 use traction::vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
-use traction::vslam_core::{PerStream, Reject, Stream, Timestamp};
+use traction::vslam_core::{PerStream, Reject, Timestamp};
 
 fn wheel(t: u64, id: i64) -> Event {
     Event::Wheel(WheelTicks {
