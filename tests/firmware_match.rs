@@ -215,6 +215,26 @@ fn host_loop_runs_the_sample_data() {
         m.t_over_d().norm() > 0.002 && m.t_over_d().norm() < 0.05,
         "{m:?}"
     );
+    // The tallies also print with their reason names: the flow filter's
+    // starts `fused N, gated G`, then the reasons it refused samples for.
+    let mut counts = String::new();
+    s.write_counts(&mut counts).unwrap();
+    print!("{counts}");
+    let flow = s.ekf.flow_counts();
+    let line = format!(
+        "counts ekf.flow_counts fused {}, gated {}",
+        flow.fused(),
+        flow.gated()
+    );
+    assert!(counts.lines().any(|l| l.starts_with(&line)), "{counts}");
+    for (reason, n) in flow.by_reason() {
+        if n > 0 && reason != traction::vslam_core::Reject::Gated {
+            assert!(
+                counts.contains(&format!("{reason} {n}")),
+                "{reason}: {counts}"
+            );
+        }
+    }
     // The printed form reads back exactly.
     let (problems, worst) = compare(&text, &host);
     assert!(problems.is_empty(), "{problems:#?}");

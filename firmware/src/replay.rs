@@ -405,10 +405,6 @@ impl Summary {
         f("ekf.accel_bias", &v3(e.accel_bias()));
         f("ekf.gyro_bias", &v3(e.gyro_bias()));
         f("ekf.position_std", &v3(e.position_std()));
-        f("ekf.imu_counts", &counts(e.imu_counts()));
-        f("ekf.wheel_counts", &counts(e.wheel_counts()));
-        f("ekf.flow_counts", &counts(e.flow_counts()));
-        f("ekf.zupt_counts", &counts(e.zupt_counts()));
         match self.scale.running_scale() {
             Some(s) => f(
                 "scale.running",
@@ -433,15 +429,7 @@ impl Summary {
             ],
         );
         f("scale.scaled_frames", &[Value::N(self.scaled_frames)]);
-        for (name, kind) in [
-            ("scale.wheel_counts", SensorKind::Wheel),
-            ("scale.flow_counts", SensorKind::Flow),
-            ("scale.camera_counts", SensorKind::Camera),
-            ("scale.imu_counts", SensorKind::Imu),
-        ] {
-            f(name, &counts(&self.scale.counts(kind)));
-        }
-        f("odometry.counts", &counts(self.odometry.counts()));
+        self.each_count(&mut |name, c| f(name, &counts(c)));
         f("records", &self.records.as_array().map(Value::N));
         f(
             "imu.invalid",
@@ -450,6 +438,37 @@ impl Summary {
                 Value::N(self.imu_invalid.rejected_total()),
             ],
         );
+    }
+
+    /// Every tally of the run: `(name, counts)`.
+    pub fn each_count(&self, f: &mut dyn FnMut(&str, &SampleCounts)) {
+        let e = &self.ekf;
+        f("ekf.imu_counts", e.imu_counts());
+        f("ekf.wheel_counts", e.wheel_counts());
+        f("ekf.flow_counts", e.flow_counts());
+        f("ekf.zupt_counts", e.zupt_counts());
+        for (name, kind) in [
+            ("scale.wheel_counts", SensorKind::Wheel),
+            ("scale.flow_counts", SensorKind::Flow),
+            ("scale.camera_counts", SensorKind::Camera),
+            ("scale.imu_counts", SensorKind::Imu),
+        ] {
+            f(name, &self.scale.counts(kind));
+        }
+        f("odometry.counts", self.odometry.counts());
+    }
+
+    /// Writes one line `counts NAME fused F, gated G, rejected: REASON N, ...`
+    /// per tally: the counts with their reason names, for a reader (the
+    /// `result` lines carry the same numbers for the host comparison).
+    pub fn write_counts(&self, out: &mut dyn Write) -> fmt::Result {
+        let mut result = Ok(());
+        self.each_count(&mut |name, c| {
+            if result.is_ok() {
+                result = writeln!(out, "counts {name} {c}");
+            }
+        });
+        result
     }
 
     /// Writes one line `result NAME V...` per quantity; floats in the

@@ -61,14 +61,15 @@ impl SensorKind {
         }
     }
 
-    /// The sensor the memory tracks for `stream`, if it tracks one.
+    /// The sensor the memory tracks for `stream`, if it tracks one (tracking
+    /// is opt-in: a new stream is not remembered until it gets a slot here).
     pub const fn of(stream: Stream) -> Option<SensorKind> {
         match stream {
             Stream::Wheel => Some(SensorKind::Wheel),
             Stream::Flow => Some(SensorKind::Flow),
             Stream::Camera => Some(SensorKind::Camera),
             Stream::Imu => Some(SensorKind::Imu),
-            Stream::FlowFrame | Stream::ForwardCamera | Stream::Segmentation => None,
+            _ => None,
         }
     }
 
