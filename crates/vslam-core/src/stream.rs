@@ -4,11 +4,28 @@
 //! Everything that keeps something per stream (the estimator's counts, the
 //! reorder buffer's events, host-sim's fault injection and reports, the
 //! firmware's record tallies) indexes by [`Stream`], the way
-//! [`SampleCounts`](crate::SampleCounts) indexes its rejections by
-//! [`Reject`](crate::Reject) (per-sensor status as PX4 EKF2 keeps it). A new
+//! [`SampleCounts`] indexes its rejections by [`Reject`](crate::Reject) (per-sensor status as PX4 EKF2 keeps it). A new
 //! stream is one variant here: [`PerStream`] grows with it, every report that
 //! iterates [`Stream::ALL`] lists it, and every exhaustive `match` over
 //! [`Stream`] fails to compile until the new stream is handled.
+//!
+//! ```
+//! use vslam_core::{Reject, Stream, StreamCounts};
+//!
+//! let mut counts = StreamCounts::zero();
+//! counts[Stream::Imu].record(Ok(()));
+//! counts[Stream::Flow].record(Err(Reject::Gated));
+//! counts[Stream::Flow].record(Err(Reject::NonFinite));
+//! assert_eq!(counts[Stream::Flow].seen(), 2);
+//! // A report names every stream, in slot order.
+//! let names: Vec<&str> = counts.iter().map(|(s, _)| s.name()).collect();
+//! assert_eq!(names[..3], ["imu", "wheel", "flow"]);
+//! // Printed: the streams that saw samples, with the reasons by name.
+//! assert_eq!(
+//!     counts.to_string(),
+//!     "imu: fused 1, gated 0\nflow: fused 0, gated 1, rejected: non_finite 1"
+//! );
+//! ```
 
 use core::fmt;
 use core::ops::{Index, IndexMut};
