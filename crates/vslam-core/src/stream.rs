@@ -3,11 +3,12 @@
 //!
 //! Everything that keeps something per stream (the estimator's counts, the
 //! reorder buffer's events, host-sim's fault injection and reports, the
-//! firmware's record tallies) indexes by [`Stream`], the way
-//! [`SampleCounts`] indexes its rejections by [`Reject`](crate::Reject) (per-sensor status as PX4 EKF2 keeps it). A new
-//! stream is one variant here: [`PerStream`] grows with it, every report that
-//! iterates [`Stream::ALL`] lists it, and every exhaustive `match` over
-//! [`Stream`] fails to compile until the new stream is handled.
+//! firmware's record tallies) indexes by [`Stream`], the way [`SampleCounts`]
+//! indexes its rejections by [`Reject`](crate::Reject) (per-sensor status as
+//! PX4 EKF2 keeps it). A new stream is one variant here: [`PerStream`] grows
+//! with it, every report that iterates [`Stream::ALL`] lists it, and every
+//! exhaustive `match` over [`Stream`] fails to compile until the new stream
+//! is handled.
 //!
 //! ```
 //! use vslam_core::{Reject, Stream, StreamCounts};
