@@ -68,7 +68,7 @@ use traction::reorder::Event;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
 use traction::vslam_core::scale::PipelineConfig;
 use traction::vslam_core::sensors::{FlowOptics, WheelTicks};
-use traction::vslam_core::{SampleCounts, Timestamp};
+use traction::vslam_core::{SampleCounts, Stream, Timestamp};
 use traction::wheel_odom::odometry::DiffDriveParams;
 
 /// IMU steps of the soak: one hour at 250 Hz. `SOAK_IMU_STEPS` overrides
@@ -452,24 +452,28 @@ fn one_hour_at_250_hz() {
     // Every sample fed is counted once.
     let c = est.counts();
     assert_eq!(
-        [c.imu.seen(), c.wheel.seen(), c.flow.seen()],
+        [
+            c[Stream::Imu].seen(),
+            c[Stream::Wheel].seen(),
+            c[Stream::Flow].seen()
+        ],
         fed.map(|n| n as u32)
     );
     // Only the initialisation (well under a second) leaves IMU samples unfused.
     assert!(
-        u64::from(c.imu.fused()) + 250 >= total_steps,
+        u64::from(c[Stream::Imu].fused()) + 250 >= total_steps,
         "imu {}",
-        counted(&c.imu)
+        counted(&c[Stream::Imu])
     );
     assert!(
-        c.wheel.fused() as f64 >= 0.5 * fed[1] as f64,
+        c[Stream::Wheel].fused() as f64 >= 0.5 * fed[1] as f64,
         "wheel {}",
-        counted(&c.wheel)
+        counted(&c[Stream::Wheel])
     );
     assert!(
-        c.flow.fused() as f64 >= 0.5 * fed[2] as f64,
+        c[Stream::Flow].fused() as f64 >= 0.5 * fed[2] as f64,
         "flow {}",
-        counted(&c.flow)
+        counted(&c[Stream::Flow])
     );
     let seconds = total_steps / 250;
     assert!(
@@ -492,9 +496,9 @@ fn one_hour_at_250_hz() {
         "  resident set: {:?} KiB after 2 laps, {:?} KiB at the end",
         rss_early, rss_end
     );
-    println!("  imu: {}", counted(&c.imu));
-    println!("  wheel: {}", counted(&c.wheel));
-    println!("  flow: {}", counted(&c.flow));
+    println!("  imu: {}", counted(&c[Stream::Imu]));
+    println!("  wheel: {}", counted(&c[Stream::Wheel]));
+    println!("  flow: {}", counted(&c[Stream::Flow]));
     println!(
         "  zupt: {}; flow velocity resets: {}",
         counted(ekf.zupt_counts()),

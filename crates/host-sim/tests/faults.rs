@@ -119,8 +119,9 @@ fn check(plan: &str) -> (Run, Recovery) {
         );
         if let Expected::Reject(reason) = spec.kind.expected()
             && reason != Reject::Gated
+            && let Some(stream) = spec.kind.stream()
         {
-            *injected_by.entry((spec.kind.stream(), reason)).or_default() += r.injected as u64;
+            *injected_by.entry((stream, reason)).or_default() += r.injected as u64;
         }
     }
     for ((stream, reason), n) in injected_by {

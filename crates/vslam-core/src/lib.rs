@@ -4,8 +4,9 @@
 //!
 //! - the shared vocabulary every crate speaks: [`time`] (integer nanoseconds),
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
-//!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
-//!   not fused, and the counts);
+//!   samples, the sensor traits drivers implement), [`stream`] (the sensor
+//!   registry: every kind of sample, and arrays indexed by it), [`reject`] (why
+//!   a sample was not fused, and the counts);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
 //!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
 //!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
@@ -69,7 +70,9 @@ pub mod pyramid;
 pub mod reject;
 pub mod scale;
 pub mod sensors;
+pub mod stream;
 pub mod time;
 
 pub use reject::{Reject, SampleCounts};
+pub use stream::{PerStream, Stream, StreamCounts};
 pub use time::{SampleClock, Timestamp};
