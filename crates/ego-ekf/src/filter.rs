@@ -4,6 +4,7 @@
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
+use crate::aid_status::{FlowStatus, WheelStatus, ZuptStatus};
 use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
 use crate::flow::model::reset_velocity;
@@ -20,10 +21,8 @@ use crate::recovery::{Evidence, RecoveryCounts, ResetSource, Verdict, decide};
 use crate::state::{
     BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
 };
-use crate::update::gated_update;
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::StillDetector;
-use crate::zupt::model::zupt_measurement;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
@@ -343,9 +342,7 @@ impl EgoEkf {
             covariance::decouple_clone(&mut self.p);
             self.clone_due = true;
         } else if self.still.update_due(&zc) {
-            let m = zupt_measurement(&self.x, &zc);
-            let outcome = gated_update(&mut self.x, &mut self.p, &m, None).map(|_| ());
-            self.still.record(outcome);
+            let _ = self.still.fuse(&mut self.x, &mut self.p, &zc, sample.t());
         }
         Ok(ImuStep {
             t: sample.t(),
@@ -425,7 +422,7 @@ impl EgoEkf {
     /// [`WheelInnovation::recovery`] and counted ([`EgoEkf::recovery`]).
     pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
-            return Err(self.wheel.refuse(Reject::NotReady));
+            return Err(self.wheel.refuse(rates.t, Reject::NotReady));
         };
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
@@ -526,10 +523,10 @@ impl EgoEkf {
     /// behind is [`Reject::OutOfOrder`].
     pub fn fuse_flow(&mut self, sample: &FlowSample) -> Result<FlowFused, Reject> {
         let Some(config) = self.config.flow else {
-            return Err(self.flow.refuse(Reject::NotReady));
+            return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
-            return Err(self.flow.refuse(Reject::NotReady));
+            return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let gyro = self.angular_velocity();
         let out = self
@@ -683,9 +680,20 @@ impl EgoEkf {
         self.last_step
     }
 
-    /// The latest wheel innovation.
-    pub fn last_wheel_innovation(&self) -> Option<WheelInnovation> {
-        self.wheel.last()
+    /// The wheels' status after their latest sample: forward and
+    /// differential rows (see [`crate::aid_status`]).
+    pub fn wheel_status(&self) -> Option<&WheelStatus> {
+        self.wheel.status()
+    }
+
+    /// The optical flow's status after its latest report.
+    pub fn flow_status(&self) -> Option<&FlowStatus> {
+        self.flow.status()
+    }
+
+    /// The zero-velocity update's status after the latest update.
+    pub fn zupt_status(&self) -> Option<&ZuptStatus> {
+        self.still.status()
     }
 
     /// IMU samples propagated and rejected by reason.

@@ -43,7 +43,7 @@
 use nalgebra::Vector2;
 use vslam_core::Timestamp;
 
-use crate::config::RecoveryConfig;
+use crate::config::{FlowConfig, RecoveryConfig};
 
 /// Where a reset velocity came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -318,6 +318,13 @@ pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
         return Verdict::Reset(ResetSource::Wheels);
     }
     Verdict::NoTrustedSource
+}
+
+/// Whether the flow's own run of `gated_run` gated reports ends in a reset
+/// of the velocity to the report: after [`FlowConfig::reset_after_gated`]
+/// in a row (0: never), of plausible speed.
+pub fn flow_reset_due(config: &FlowConfig, gated_run: u16, plausible: bool) -> bool {
+    config.reset_after_gated != 0 && gated_run >= config.reset_after_gated && plausible
 }
 
 /// Verdicts counted, and the latest.

@@ -1,4 +1,5 @@
-//! Zero-velocity updates: *when to fuse* in [`detector`], *the maths* in [`model`].
+//! Zero-velocity updates: *when to fuse* (the still detector, the
+//! update's bookkeeping) in [`detector`], *the maths* in [`model`].
 
 pub mod detector;
 pub mod model;
