@@ -41,7 +41,8 @@ use crate::aid_status::{
     AidOutcome, AidStatus, FlowStatus, innovation_covariance, innovation_variances, nis,
 };
 use crate::config::FlowConfig;
-use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
+use crate::covariance::reset_velocity;
+use crate::flow::model::{flow_measurement, flow_std, flow_velocity};
 use crate::recovery::{FlowWindow, FlowWitness, flow_reset_due};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::update::gated_update_with;

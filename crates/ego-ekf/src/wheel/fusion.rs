@@ -13,8 +13,9 @@
 //! of it, a velocity the state has not reached yet (the IMU lags or went
 //! silent: [`Reject::NotReady`]). Both are counted and change nothing.
 //!
-//! Consecutive gated samples form a [`GatedRun`]; the filter re-examines its
-//! velocity when the run is due (see [`crate::recovery`]).
+//! Consecutive gated samples form a [`crate::recovery::GatedRun`], watched
+//! by [`WheelWatch`]; the filter re-examines its velocity when the run is
+//! due (see [`crate::recovery`]).
 //!
 //! Every sample, fused, gated or refused, leaves its [`WheelStatus`]
 //! ([`WheelFusion::status`]): forward and differential rows.
@@ -25,7 +26,7 @@ use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 use crate::aid_status::{AidOutcome, AidStatus, WheelStatus};
 use crate::config::RecoveryConfig;
 use crate::grip::GripParams;
-use crate::recovery::{GatedRun, Verdict};
+use crate::recovery::{Verdict, WheelWatch};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::wheel::model::wheel_rows;
 use crate::wheel::update::{WheelUpdate, update};
@@ -55,9 +56,7 @@ pub struct WheelFusion {
     stopped: bool,
     stop_rate: f32,
     max_age_ns: u64,
-    run: GatedRun,
-    last_fused: Option<Timestamp>,
-    resumed: Option<Timestamp>,
+    watch: WheelWatch,
 }
 
 impl WheelFusion {
@@ -72,20 +71,19 @@ impl WheelFusion {
             stopped: false,
             stop_rate,
             max_age_ns,
-            run: GatedRun::default(),
-            last_fused: None,
-            resumed: None,
+            watch: WheelWatch::default(),
         }
     }
 
-    /// The current run of gated samples.
-    pub fn gated_run(&self) -> &GatedRun {
-        &self.run
+    /// The current run of gated samples and the time of the last fused one
+    /// (see [`crate::recovery`]).
+    pub fn watch(&self) -> &WheelWatch {
+        &self.watch
     }
 
     /// Ends the run of gated samples (after a velocity reset).
     pub fn end_run(&mut self) {
-        self.run.clear();
+        self.watch.end_run();
     }
 
     /// Samples fused, gated and rejected by reason.
@@ -109,7 +107,7 @@ impl WheelFusion {
         self.counts.rejected_one(reason);
         self.status = Some(
             AidStatus::new(t, AidOutcome::Rejected(reason), self.status.as_ref())
-                .with_gated_run(self.run.len()),
+                .with_gated_run(self.watch.run().len()),
         );
         reason
     }
@@ -131,34 +129,8 @@ impl WheelFusion {
         let checked = self.fuse_inner(x, p, gyro, rates, grip, now);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
-            Ok(inn) if inn.gated => {
-                // Silence: nothing fused for a while, or fusing resumed only
-                // just now after such a while (the first samples back may
-                // pass the gate and leave the rest of the offset).
-                let within = |since: Option<Timestamp>| {
-                    since.is_some_and(|s| {
-                        rates
-                            .t
-                            .nanos_since(s)
-                            .is_some_and(|d| d <= recovery.silence_ns)
-                    })
-                };
-                let after_silence = !within(self.last_fused) || within(self.resumed);
-                self.run.push(recovery, inn.forward, after_silence);
-            }
-            Ok(_) => {
-                let silent_before = !self.last_fused.is_some_and(|f| {
-                    rates
-                        .t
-                        .nanos_since(f)
-                        .is_some_and(|d| d <= recovery.silence_ns)
-                });
-                if silent_before {
-                    self.resumed = Some(rates.t);
-                }
-                self.run.clear();
-                self.last_fused = Some(rates.t);
-            }
+            Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t, inn.forward),
+            Ok(_) => self.watch.fused(recovery, rates.t),
             Err(_) => {}
         }
         match outcome {
@@ -184,7 +156,7 @@ impl WheelFusion {
             }
             Err(r) => AidStatus::new(rates.t, AidOutcome::of::<()>(&Err(r)), previous),
         };
-        self.status = Some(status.with_gated_run(self.run.len()));
+        self.status = Some(status.with_gated_run(self.watch.run().len()));
         outcome
     }
 
