@@ -20,7 +20,7 @@ use crate::state::{
     BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
 };
 use crate::wheel::{WheelFusion, WheelInnovation};
-use crate::zupt::StillDetector;
+use crate::zupt::{StillDetector, ZuptFusion};
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
@@ -100,6 +100,7 @@ pub struct EgoEkf {
     imu_counts: SampleCounts,
     last_step: Option<ImuStep>,
     still: StillDetector,
+    zupt: ZuptFusion,
     wheel: WheelFusion,
     flow: FlowFusion,
     recovery: RecoveryCounts,
@@ -157,6 +158,7 @@ impl EgoEkf {
             imu_counts: SampleCounts::new(),
             last_step: None,
             still: StillDetector::new(),
+            zupt: ZuptFusion::new(),
             wheel: WheelFusion::new(
                 config.wheel_max_dt_ns,
                 config.wheel_max_age_ns,
@@ -235,6 +237,7 @@ impl EgoEkf {
         let _ = self.imu_clock.accept(t);
         self.initialiser.restart();
         self.still = StillDetector::new();
+        self.zupt = ZuptFusion::new();
         self.initialised = true;
     }
 
@@ -325,7 +328,7 @@ impl EgoEkf {
             covariance::decouple_clone(&mut self.p);
             self.clone_due = true;
         } else if self.still.update_due(&zc) {
-            let _ = self.still.fuse(&mut self.x, &mut self.p, &zc, sample.t());
+            let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
         }
         Ok(ImuStep {
             t: sample.t(),
@@ -648,7 +651,7 @@ impl EgoEkf {
 
     /// The zero-velocity update's status after the latest update.
     pub fn zupt_status(&self) -> Option<&ZuptStatus> {
-        self.still.status()
+        self.zupt.status()
     }
 
     /// IMU samples propagated and rejected by reason.
@@ -703,6 +706,6 @@ impl EgoEkf {
 
     /// Zero-velocity updates fused and rejected.
     pub fn zupt_counts(&self) -> &SampleCounts {
-        self.still.counts()
+        self.zupt.counts()
     }
 }

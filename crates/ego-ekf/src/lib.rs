@@ -8,12 +8,14 @@
 //!
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
-//! - [`update`]: the shared gated update; [`covariance`]: reset, clone, checks;
+//! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
+//!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
 //! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*; [`aid_status`]: the one status record
 //!   each of them leaves (PX4 EKF2 `estimator_aid_source` style);
-//! - [`recovery`]: out of a wheel lockout from the most trusted source;
+//! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
+//!   of a lockout from the most trusted source);
 //!   [`gap`]: bridging an IMU gap;
 //! - [`filter`]: [`EgoEkf`], the type users call.
 #![no_std]

@@ -22,8 +22,10 @@
 //! resets its velocity to optical flow after a fusion timeout, a run of
 //! [`FlowConfig::reset_after_gated`] consecutive gated reports of valid
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
-//! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
-//! reported ([`FlowFused::reset`]).
+//! horizontal velocity to the flow's measurement with the measurement's
+//! variance (when: [`crate::recovery::flow_reset_due`]; the reset:
+//! [`crate::covariance::reset_velocity`]); the reset is counted
+//! ([`FlowFusion::resets`]) and reported ([`FlowFused::reset`]).
 //!
 //! Reports of valid quality and plausible speed, fused or gated, are averaged
 //! over a short window ([`FlowWindow`]) as a witness of the robot's velocity
