@@ -364,7 +364,7 @@ impl EgoEkf {
 
     /// The flow's recent mean at `t`, if a flow sensor is configured.
     fn flow_witness_at(&self, t: Timestamp) -> Option<FlowWitness> {
-        self.config.flow.and(self.flow.witness(t))
+        self.config.flow.and_then(|_| self.flow.witness(t))
     }
 
     /// Bridges the gap from `start` to `end` (`gap_ns` long): with the
