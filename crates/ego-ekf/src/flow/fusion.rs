@@ -49,7 +49,9 @@ use crate::recovery::{FlowWindow, FlowWitness, flow_reset_due};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::update::gated_update_with;
 
-/// What a fused flow report said.
+/// What a fused flow report said: the short answer of
+/// [`crate::EgoEkf::fuse_flow`]; the report's full record is its
+/// [`FlowStatus`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowFused {
     /// Measured robot-origin velocity (x, y), robot frame, m/s.

@@ -31,7 +31,9 @@ use crate::state::{Covariance, NominalState, Vec3};
 use crate::wheel::model::wheel_rows;
 use crate::wheel::update::{WheelUpdate, update};
 
-/// The forward wheel-velocity innovation of one wheel sample.
+/// The forward wheel-velocity innovation of one wheel sample: the short
+/// answer of [`crate::EgoEkf::fuse_wheel`]; the sample's full record is its
+/// [`WheelStatus`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelInnovation {
     /// Forward innovation (measured minus predicted forward speed), m/s.
