@@ -118,6 +118,32 @@ fn flow_status_carries_the_test_ratio_of_fused_and_gated_reports() {
     let expect = s.innovation[0] * s.innovation[0] / s.innovation_var[0];
     assert!((s.nis - expect).abs() <= 1e-3 * expect, "{s:?}");
     assert!(s.test_ratio() > 1.0);
+
+    // The run goes on until the flow's own reset: then the outcome is a
+    // reset and the run is over.
+    let mut propagated = 1;
+    let mut reset = false;
+    for n in 2..100u16 {
+        let k = 31 + 10 * u64::from(n - 1);
+        for i in propagated + 1..=k {
+            f.propagate(&rest(i * DT)).unwrap();
+        }
+        propagated = k;
+        let out = f.fuse_flow(&sample(k, 1000, 200));
+        let s = *f.flow_status().unwrap();
+        if out == Err(Reject::Gated) {
+            assert_eq!((s.outcome, s.consecutive_gated), (AidOutcome::Gated, n));
+            continue;
+        }
+        assert!(out.unwrap().reset, "{out:?}");
+        assert_eq!((s.outcome, s.consecutive_gated), (AidOutcome::Reset, 0));
+        assert!(s.fused() && s.test_ratio() > 1.0);
+        assert_eq!(s.last_fused, Some(Timestamp(11 * DT)));
+        reset = true;
+        break;
+    }
+    assert!(reset);
+    assert_eq!(f.flow_resets(), 1);
 }
 
 #[test]
