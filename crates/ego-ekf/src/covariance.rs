@@ -301,3 +301,46 @@ pub fn is_positive_definite(p: &Covariance) -> bool {
     let c = p.component_mul(&(d * d.transpose()));
     nalgebra::Cholesky::new(c).is_some()
 }
+
+// Resets: a block of the state replaced by a measurement, its covariance
+// replaced by the measurement's variance with no correlation to the rest
+// (PX4 EKF2's `resetHorizontalVelocityTo` and friends). Used by the lockout
+// recovery ([`crate::recovery`]) and the flow's own reset
+// ([`crate::flow::fusion`]).
+
+/// Replaces the covariance of the `N` states from `START` by `var` on the
+/// diagonal and zero elsewhere in their rows and columns: the block becomes
+/// uncorrelated with the rest, which keeps `P` symmetric positive definite
+/// (for `var > 0`).
+pub fn reset_block<const START: usize, const N: usize>(p: &mut Covariance, var: f32) {
+    const { assert!(START + N <= DIM) };
+    p.fixed_rows_mut::<N>(START).fill(0.0);
+    p.fixed_columns_mut::<N>(START).fill(0.0);
+    for i in START..START + N {
+        if let Some(d) = p.get_mut((i, i)) {
+            *d = var;
+        }
+    }
+}
+
+/// Resets the velocity so that the robot-origin horizontal velocity, robot
+/// frame, equals `z` (m/s; the vertical robot-frame component is kept),
+/// given the body rate `gyro` (bias-corrected, body frame), and replaces the
+/// velocity's covariance by `std^2` per component, uncorrelated
+/// ([`reset_block`]).
+pub fn reset_velocity(
+    x: &mut crate::state::NominalState,
+    p: &mut Covariance,
+    gyro: &Vec3,
+    z: &nalgebra::Vector2<f32>,
+    std: f32,
+) {
+    let r_rb = x.q_rb.to_rotation_matrix().into_inner();
+    let r_wb = x.q_wb.to_rotation_matrix().into_inner();
+    let p_mid = x.p_b_robot();
+    let v_b = r_wb.transpose() * x.v_wb;
+    let w_mid = r_rb * (v_b + gyro.cross(&p_mid));
+    let u_new = r_rb.transpose() * Vec3::new(z.x, z.y, w_mid.z);
+    x.v_wb = r_wb * (u_new - gyro.cross(&p_mid));
+    reset_block::<{ crate::state::V }, 3>(p, std * std);
+}
