@@ -4,7 +4,9 @@
 
 use nalgebra::Matrix3;
 
-use crate::state::{CP, CTH, Covariance, DIM, ErrorState, P, RB, TH, Vec3};
+use crate::state::{
+    CLONE, CP, CTH, Covariance, DIM, ErrorState, P, ROTATION_COUNT, ROTATIONS, TH, Vec3,
+};
 
 /// Makes `p` exactly symmetric by averaging it with its transpose.
 pub fn symmetrize(p: &mut Covariance) {
@@ -16,21 +18,20 @@ pub fn skew(v: &nalgebra::Vector3<f32>) -> Matrix3<f32> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
-/// The rotation blocks of the error state, whose errors the reset rotates.
-const ROTATIONS: [usize; 3] = [TH, CTH, RB];
-
-/// The nine error-state indices of the rotation blocks.
-const ROTATION_INDICES: [usize; 9] = [
-    TH,
-    TH + 1,
-    TH + 2,
-    CTH,
-    CTH + 1,
-    CTH + 2,
-    RB,
-    RB + 1,
-    RB + 2,
-];
+/// The error-state indices of the rotation blocks ([`ROTATIONS`], three
+/// each), in the table's order.
+#[allow(clippy::indexing_slicing)] // k < ROTATION_COUNT; evaluated at compile time
+const ROTATION_INDICES: [usize; 3 * ROTATION_COUNT] = {
+    let mut out = [0; 3 * ROTATION_COUNT];
+    let mut k = 0;
+    while k < ROTATION_COUNT {
+        out[3 * k] = ROTATIONS[k];
+        out[3 * k + 1] = ROTATIONS[k] + 1;
+        out[3 * k + 2] = ROTATIONS[k] + 2;
+        k += 1;
+    }
+    out
+};
 
 /// Whether each error-state index lies in a rotation block. Evaluated at
 /// compile time: an index out of range is a build error, never a panic.
@@ -46,8 +47,8 @@ const IS_ROTATION: [bool; DIM] = {
 };
 
 /// The error reset after an update: `P <- G P G^T` with `G = I` except
-/// `I - [dtheta/2]x` on every rotation block (IMU attitude, clone attitude,
-/// body-to-robot rotation); Solà 2017, eq. 287.
+/// `I - [dtheta/2]x` on every rotation block ([`ROTATIONS`]: IMU
+/// attitude, body-to-robot rotation, clone attitude); Solà 2017, eq. 287.
 ///
 /// `G` touches only the nine rotation rows and columns: the rotation
 /// columns become `P G^T` in place (six multiply-adds a row and block); the
@@ -257,7 +258,7 @@ pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude:
 /// [`crate::propagate::propagate_covariance_clone_decoupled`]). For a clone
 /// that will be overwritten by [`clone_pose`] before anything reads it.
 pub fn decouple_clone(p: &mut Covariance) {
-    let clone = CP..CTH + 3;
+    let clone = CLONE;
     for (j, col) in p.data.0.iter_mut().enumerate() {
         if clone.contains(&j) {
             for (i, v) in col.iter_mut().enumerate() {

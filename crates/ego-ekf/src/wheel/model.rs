@@ -30,12 +30,12 @@ use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
 use crate::grip::GripParams;
-use crate::lanes::Lane;
+use crate::kernels::lanes::Lane;
 #[cfg(not(target_arch = "arm"))]
-use crate::lanes::{Lanes, starts};
-use crate::state::{BG, CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3};
+use crate::kernels::lanes::{Lanes, starts};
 #[cfg(target_arch = "arm")]
-use crate::update::CLONE;
+use crate::state::CLONE;
+use crate::state::{BG, CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3};
 use crate::update::Measurement;
 
 /// Row of the forward component.
