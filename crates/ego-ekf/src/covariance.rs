@@ -4,8 +4,10 @@
 
 use nalgebra::Matrix3;
 
+use crate::config::{InitConfig, RobotPrior};
 use crate::state::{
-    CLONE, CP, CTH, Covariance, DIM, ErrorState, P, ROTATION_COUNT, ROTATIONS, TH, Vec3,
+    BLOCKS, CLONE, CP, CTH, Covariance, DIM, ErrorState, P, Prior, ROTATION_COUNT, ROTATIONS, TH,
+    Vec3,
 };
 
 /// Makes `p` exactly symmetric by averaging it with its transpose.
@@ -270,6 +272,34 @@ pub fn decouple_clone(p: &mut Covariance) {
             rows.fill(0.0);
         }
     }
+}
+
+/// The initial covariance: diagonal, each block's variance the square of
+/// the standard deviation its [`Prior`] names in the state table (the
+/// attitude's tilt on its first two components, yaw on the third); zero on
+/// the clone, which the caller sets by copying the pose ([`clone_pose`]).
+pub fn initial_covariance(init: &InitConfig, robot: &RobotPrior) -> Covariance {
+    let mut d = ErrorState::zeros();
+    for b in BLOCKS {
+        let std = match b.prior {
+            Prior::Copied => continue,
+            Prior::Position => init.position_std,
+            Prior::Velocity => init.velocity_std,
+            Prior::Attitude => {
+                d.rows_mut(b.start, 2).fill(init.tilt_std * init.tilt_std);
+                d.rows_mut(b.start + 2, 1).fill(init.yaw_std * init.yaw_std);
+                continue;
+            }
+            Prior::AccelBias => init.accel_bias_std,
+            Prior::GyroBias => init.gyro_bias_std,
+            Prior::Gravity => init.gravity_std,
+            Prior::Contact => robot.contact_std,
+            Prior::BodyToRobot => robot.rotation_std,
+            Prior::Radius => robot.radius_std,
+        };
+        d.rows_mut(b.start, b.dim).fill(std * std);
+    }
+    Covariance::from_diagonal(&d)
 }
 
 // The clone's position and attitude are adjacent.

@@ -18,11 +18,15 @@
 //! # The layout table
 //!
 //! [`BLOCKS`] is the one table of the error state, in order: each block's
-//! name, dimension, kind and part; [`layout`] fills in the start indices.
+//! name, dimension, kind, part, process noise ([`Drive`]) and initial
+//! standard deviation ([`Prior`]); [`layout`] fills in the start indices.
 //! Everything else is derived from it by `const fn`s, at compile time:
 //! [`DIM`], the start of every block ([`P`], [`V`], ...), the clone's rows
 //! [`CLONE`], the rotation blocks [`ROTATIONS`], [`IMU_DIM`] and
-//! [`REST_DIM`]; the covariance kernels
+//! [`REST_DIM`], a measurement's supporting columns ([`columns`]); and at
+//! run time the diagonal of the process noise
+//! ([`crate::propagate::process_noise`]) and the initial covariance
+//! ([`crate::covariance::initial_covariance`]). The covariance kernels
 //! (`crate::kernels`) are written over [`DIM`] and [`CLONE`]. Adding a
 //! block of states is a row of the table (plus its nominal field in
 //! [`NominalState`] and its use in the models).
@@ -83,6 +87,58 @@ pub enum Part {
     Clone,
 }
 
+/// The process noise that drives a block: which density or random walk of
+/// the configuration ([`crate::config::ImuNoise`],
+/// [`crate::config::RobotPrior`]) enters its diagonal of `Q` (see
+/// [`crate::propagate::process_noise`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drive {
+    /// No process noise (position, gravity, the clone).
+    Zero,
+    /// Accelerometer white noise (velocity).
+    AccelNoise,
+    /// Gyroscope white noise (attitude).
+    GyroNoise,
+    /// Accelerometer bias random walk.
+    AccelBiasWalk,
+    /// Gyroscope bias random walk.
+    GyroBiasWalk,
+    /// Contact-point random walk.
+    ContactWalk,
+    /// Body-to-robot rotation random walk.
+    RotationWalk,
+    /// Wheel-radius random walk.
+    RadiusWalk,
+}
+
+/// The initial standard deviation of a block: which one of the
+/// configuration ([`crate::config::InitConfig`],
+/// [`crate::config::RobotPrior`]) sets its diagonal of the initial
+/// covariance (see [`crate::covariance::initial_covariance`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Prior {
+    /// None: set by the copy of the pose (the clone).
+    Copied,
+    /// Position.
+    Position,
+    /// Velocity.
+    Velocity,
+    /// Attitude: tilt on the first two components, yaw on the third.
+    Attitude,
+    /// Accelerometer bias.
+    AccelBias,
+    /// Gyroscope bias.
+    GyroBias,
+    /// Gravity.
+    Gravity,
+    /// Contact point.
+    Contact,
+    /// Body-to-robot rotation.
+    BodyToRobot,
+    /// Wheel radius.
+    Radius,
+}
+
 /// One block of the error state: a row of [`BLOCKS`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Block {
@@ -96,17 +152,30 @@ pub struct Block {
     pub kind: Kind,
     /// IMU, robot or clone.
     pub part: Part,
+    /// Its process noise.
+    pub drive: Drive,
+    /// Its initial standard deviation.
+    pub prior: Prior,
 }
 
 impl Block {
     /// A block of the table (its start is filled in by [`layout`]).
-    pub const fn new(name: &'static str, dim: usize, kind: Kind, part: Part) -> Self {
+    pub const fn new(
+        name: &'static str,
+        dim: usize,
+        kind: Kind,
+        part: Part,
+        drive: Drive,
+        prior: Prior,
+    ) -> Self {
         Block {
             name,
             start: 0,
             dim,
             kind,
             part,
+            drive,
+            prior,
         }
     }
 
@@ -130,6 +199,10 @@ pub const fn layout<const N: usize>(mut blocks: [Block; N]) -> [Block; N] {
         assert!(
             !matches!(b.kind, Kind::Rotation) || b.dim == 3,
             "a rotation block has three components"
+        );
+        assert!(
+            !matches!(b.part, Part::Clone) || matches!(b.drive, Drive::Zero),
+            "the clone has no process noise"
         );
         if k > 0 {
             let before = part_rank(blocks[k - 1].part);
@@ -155,20 +228,26 @@ const fn part_rank(part: Part) -> u8 {
 }
 
 /// The error-state layout, in order (see the module doc).
-pub const BLOCKS: [Block; 12] = layout([
-    Block::new("p_wb", 3, Kind::Vector, Part::Imu),
-    Block::new("v_wb", 3, Kind::Vector, Part::Imu),
-    Block::new("q_wb", 3, Kind::Rotation, Part::Imu),
-    Block::new("accel_bias", 3, Kind::Vector, Part::Imu),
-    Block::new("gyro_bias", 3, Kind::Vector, Part::Imu),
-    Block::new("gravity", 3, Kind::Vector, Part::Imu),
-    Block::new("p_bl", 3, Kind::Vector, Part::Robot),
-    Block::new("p_br", 3, Kind::Vector, Part::Robot),
-    Block::new("q_rb", 3, Kind::Rotation, Part::Robot),
-    Block::new("radii", 2, Kind::Vector, Part::Robot),
-    Block::new("clone_p_wb", 3, Kind::Vector, Part::Clone),
-    Block::new("clone_q_wb", 3, Kind::Rotation, Part::Clone),
-]);
+pub const BLOCKS: [Block; 12] = {
+    use Drive::*;
+    use Kind::*;
+    use Part::*;
+    use Prior::*;
+    layout([
+        Block::new("p_wb", 3, Vector, Imu, Zero, Position),
+        Block::new("v_wb", 3, Vector, Imu, AccelNoise, Velocity),
+        Block::new("q_wb", 3, Rotation, Imu, GyroNoise, Attitude),
+        Block::new("accel_bias", 3, Vector, Imu, AccelBiasWalk, AccelBias),
+        Block::new("gyro_bias", 3, Vector, Imu, GyroBiasWalk, GyroBias),
+        Block::new("gravity", 3, Vector, Imu, Zero, Gravity),
+        Block::new("p_bl", 3, Vector, Robot, ContactWalk, Contact),
+        Block::new("p_br", 3, Vector, Robot, ContactWalk, Contact),
+        Block::new("q_rb", 3, Rotation, Robot, RotationWalk, BodyToRobot),
+        Block::new("radii", 2, Vector, Robot, RadiusWalk, Radius),
+        Block::new("clone_p_wb", 3, Vector, Clone, Zero, Copied),
+        Block::new("clone_q_wb", 3, Rotation, Clone, Zero, Copied),
+    ])
+};
 
 /// Whether two names are equal (a `const fn`).
 #[allow(clippy::indexing_slicing)] // i < a.len() == b.len()
@@ -228,6 +307,41 @@ pub const fn part_range(part: Part) -> Range<usize> {
         k += 1;
     }
     first..end
+}
+
+/// The error-state columns of the blocks called `names`, in that order
+/// (for a measurement's supporting columns). `N` must be the sum of their
+/// dimensions; for constants only, where a name that is not in the table
+/// or a wrong `N` is a compile-time error.
+#[allow(clippy::indexing_slicing)] // n < N, checked; evaluated at compile time
+pub const fn columns<const N: usize>(names: &[&str]) -> [usize; N] {
+    let mut out = [0; N];
+    let (mut n, mut k) = (0, 0);
+    while k < names.len() {
+        let b = block(names[k]);
+        let mut c = 0;
+        while c < b.dim {
+            assert!(n < N, "more columns than N");
+            out[n] = b.start + c;
+            n += 1;
+            c += 1;
+        }
+        k += 1;
+    }
+    assert!(n == N, "fewer columns than N");
+    out
+}
+
+/// The number of columns of the blocks called `names` (the `N` of
+/// [`columns`]); for constants only.
+#[allow(clippy::indexing_slicing)] // k < names.len(); evaluated at compile time
+pub const fn columns_len(names: &[&str]) -> usize {
+    let (mut n, mut k) = (0, 0);
+    while k < names.len() {
+        n += block(names[k]).dim;
+        k += 1;
+    }
+    n
 }
 
 /// The number of blocks of kind `kind`.
@@ -480,12 +594,40 @@ mod tests {
     }
 
     #[test]
+    fn columns_list_the_named_blocks_in_order() {
+        const NAMES: [&str; 2] = ["radii", "q_wb"];
+        const C: [usize; columns_len(&NAMES)] = columns(&NAMES);
+        assert_eq!(C, [RAD, RAD + 1, TH, TH + 1, TH + 2]);
+    }
+
+    #[test]
     fn layout_fills_in_the_starts_of_a_new_table() {
         let t = layout([
-            Block::new("a", 4, Kind::Vector, Part::Imu),
-            Block::new("b", 3, Kind::Rotation, Part::Robot),
-            Block::new("c", 1, Kind::Vector, Part::Robot),
-            Block::new("d", 3, Kind::Rotation, Part::Clone),
+            Block::new("a", 4, Kind::Vector, Part::Imu, Drive::Zero, Prior::Copied),
+            Block::new(
+                "b",
+                3,
+                Kind::Rotation,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "c",
+                1,
+                Kind::Vector,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "d",
+                3,
+                Kind::Rotation,
+                Part::Clone,
+                Drive::Zero,
+                Prior::Copied,
+            ),
         ]);
         assert_eq!(t.map(|b| b.start), [0, 4, 7, 8]);
     }
@@ -494,15 +636,36 @@ mod tests {
     #[should_panic(expected = "the IMU blocks come first")]
     fn layout_refuses_a_clone_before_the_robot() {
         let _ = layout([
-            Block::new("a", 3, Kind::Vector, Part::Imu),
-            Block::new("b", 3, Kind::Vector, Part::Clone),
-            Block::new("c", 3, Kind::Vector, Part::Robot),
+            Block::new("a", 3, Kind::Vector, Part::Imu, Drive::Zero, Prior::Copied),
+            Block::new(
+                "b",
+                3,
+                Kind::Vector,
+                Part::Clone,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "c",
+                3,
+                Kind::Vector,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
         ]);
     }
 
     #[test]
     #[should_panic(expected = "a rotation block has three components")]
     fn layout_refuses_a_rotation_of_two_components() {
-        let _ = layout([Block::new("a", 2, Kind::Rotation, Part::Imu)]);
+        let _ = layout([Block::new(
+            "a",
+            2,
+            Kind::Rotation,
+            Part::Imu,
+            Drive::Zero,
+            Prior::Copied,
+        )]);
     }
 }
