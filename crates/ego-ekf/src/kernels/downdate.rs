@@ -17,7 +17,7 @@ use crate::state::{CLONE, Covariance, DIM};
 /// `P <- P - W W^T` on every entry, column by column: entry `(i, j)` is
 /// `P[i, j] - W[i, 0] W[j, 0] - W[i, 1] W[j, 1] - ...` in that order, so
 /// the result is exactly symmetric if `P` was, and bit for bit equal to
-/// [`downdate_upper`] followed by [`mirror_upper_to_lower`] (which the
+/// [`downdate_upper`] followed by [`mirror_upper_to_lower`](super::mirror_upper_to_lower) (which the
 /// update uses: half the products; measured cheaper on the host too, with
 /// the reset done on the triangle before the mirror).
 pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
@@ -31,7 +31,7 @@ pub fn downdate<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, M>) {
 
 /// `P <- P - W W^T` on the upper triangle of `P` (row <= column): every
 /// entry is `P[i, j] - W[i, 0] W[j, 0] - W[i, 1] W[j, 1] - ...` in that
-/// order, as in [`downdate`] (so that with [`mirror_upper_to_lower`] the
+/// order, as in [`downdate`] (so that with [`mirror_upper_to_lower`](super::mirror_upper_to_lower) the
 /// two agree bit for bit, and the host with the firmware). On hosts with
 /// vector units each column's rows are taken in blocks of four (rounded up
 /// past the diagonal: the few lower-triangle entries this also updates are
@@ -114,7 +114,7 @@ fn downdate_column<const M: usize>(
 }
 
 /// `P <- P - W W^T` on both triangles, bit for bit [`downdate_upper`]
-/// followed by [`mirror_upper_to_lower`]: on hosts exactly that; on
+/// followed by [`mirror_upper_to_lower`](super::mirror_upper_to_lower): on hosts exactly that; on
 /// Cortex-M the four-column pass also stores each entry above the diagonal
 /// into its mirror image (contiguous in the column of its row), so no
 /// separate mirror pass runs.
