@@ -8,6 +8,7 @@ use nalgebra::SMatrix;
 /// The Cholesky factor `L` (lower triangle; `S = L L^T`) of the symmetric
 /// part `(S + S^T) / 2` of `s`, and the inverses of its diagonal; `None`
 /// unless positive definite. Column by column.
+#[inline]
 pub(crate) fn cholesky<const M: usize>(
     s: &SMatrix<f32, M, M>,
 ) -> Option<(SMatrix<f32, M, M>, [f32; M])> {

@@ -46,6 +46,7 @@ pub fn downdate_upper<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, DIM, 
 
 /// [`downdate_upper`] with [`clone_rows_zero`] known: `skip_clone` must
 /// equal `clone_rows_zero(w)`.
+#[inline]
 pub(crate) fn downdate_upper_with<const M: usize>(
     p: &mut Covariance,
     w: &SMatrix<f32, DIM, M>,
@@ -124,6 +125,7 @@ pub fn downdate_symmetric<const M: usize>(p: &mut Covariance, w: &SMatrix<f32, D
 
 /// [`downdate_symmetric`] with [`clone_rows_zero`] known: `skip_clone`
 /// must equal `clone_rows_zero(w)`.
+#[inline]
 pub(crate) fn downdate_symmetric_with<const M: usize>(
     p: &mut Covariance,
     w: &SMatrix<f32, DIM, M>,
@@ -285,6 +287,7 @@ fn block_entries<const M: usize>(
 /// filter keeps the clone decoupled, see
 /// [`crate::covariance::decouple_clone`]: its cross terms are zero and no
 /// measurement Jacobian has clone columns).
+#[inline]
 pub(crate) fn clone_rows_zero<const M: usize>(w: &SMatrix<f32, DIM, M>) -> bool {
     // The bits of every entry but the sign, or-ed: zero exactly when every
     // entry is `+0.0` or `-0.0` (an integer test, cheaper than comparing

@@ -52,6 +52,7 @@ pub(crate) fn forward_substitute<const M: usize, const N: usize>(
 /// unchanged). On hosts four rows at a time ([`Lanes`]: a column's
 /// consecutive rows; only the clone's rows past the last whole block are
 /// skipped, the others computed as the zeros they are), on Cortex-M one.
+#[inline]
 pub(crate) fn whiten_rows<const M: usize>(
     l: &SMatrix<f32, M, M>,
     inv_diag: &[f32; M],
