@@ -52,10 +52,11 @@ const IS_ROTATION: [bool; DIM] = {
 /// `I - [dtheta/2]x` on every rotation block ([`ROTATIONS`]: IMU
 /// attitude, body-to-robot rotation, clone attitude); Solà 2017, eq. 287.
 ///
-/// `G` touches only the nine rotation rows and columns: the rotation
+/// `G` touches only the rotation rows and columns (nine for the three
+/// blocks): the rotation
 /// columns become `P G^T` in place (six multiply-adds a row and block); the
 /// rotation rows of the other columns are, by symmetry, those columns'
-/// entries (copied); only the 9x9 rotation-rotation entries need the row
+/// entries (copied); only the rotation-rotation entries need the row
 /// operation `G (P G^T)`, and their upper triangle is copied to the lower,
 /// so the result is exactly symmetric if `P` was. About 800 multiply-adds.
 pub fn reset(p: &mut Covariance, dx: &ErrorState) {

@@ -118,7 +118,7 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
 }
 
 // The block step below relies on position, velocity and attitude being the
-// first nine error-state components, followed by the accelerometer bias, the
+// first nine error-state components (the state table's first blocks), followed by the accelerometer bias, the
 // gyroscope bias and gravity.
 const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G == 15);
 

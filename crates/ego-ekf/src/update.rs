@@ -11,14 +11,14 @@
 //!
 //! The arithmetic follows the structure, as PX4 EKF2's generated code does:
 //! - `P H^T` only over the columns where `H` is nonzero ([`Support`]; the
-//!   wheel rows touch 20 of 35, the flow rows 18, the ZUPT rows 15; the
-//!   wheel computes it from its factored rows, see
+//!   wheel rows touch 20 of the [`DIM`] = 35 columns, the flow rows 18,
+//!   the ZUPT rows 15; the wheel computes it from its factored rows, see
 //!   [`crate::wheel::model::WheelRows::p_ht`]);
 //! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
 //!   `K S K^T = W W^T`, `dx = W (L^-1 y)` and the NIS `|L^-1 y|^2`: the
 //!   sequence of scalar updates row by row, with all their rank-one
 //!   downdates in one pass over `P` ([`fuse_prepared`]);
-//! - `P <- P - W W^T` in place, no 35x35 temporary, on the upper triangle
+//! - `P <- P - W W^T` in place, no `DIM x DIM` temporary, on the upper triangle
 //!   ([`downdate_upper`], half the products) and mirrored
 //!   ([`mirror_upper_to_lower`]), or on Cortex-M with both triangles written
 //!   in the same pass ([`downdate_symmetric`]): exactly symmetric, the same
@@ -254,7 +254,7 @@ fn update_with_support<const M: usize>(
 /// uncorrelated: the Cholesky factor of `S` decorrelates them), each
 /// `P <- P - k k^T s_r`, but with the `M` rank-one downdates applied in one
 /// pass over the upper triangle of `P`: the scalar updates change only the
-/// `35 x M` block `P H^T` (by forward substitution), never `P` itself until
+/// `DIM x M` block `P H^T` (by forward substitution), never `P` itself until
 /// the end.
 pub fn fuse_prepared<const M: usize>(
     x: &mut NominalState,
@@ -268,7 +268,7 @@ pub fn fuse_prepared<const M: usize>(
 }
 
 /// [`fuse_prepared`] in the caller's `P H^T`: its storage becomes `W`
-/// (no copy of the `35 x M` block; its contents are garbage afterwards).
+/// (no copy of the `DIM x M` block; its contents are garbage afterwards).
 pub(crate) fn fuse_prepared_in_place<const M: usize>(
     x: &mut NominalState,
     p: &mut Covariance,
