@@ -92,9 +92,9 @@ pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
 /// block of the state table, the density its [`Drive`] names.
 pub fn process_noise(imu: &ImuNoise, robot: &RobotPrior, dt: f32) -> ErrorState {
     let mut q = ErrorState::zeros();
-    for b in BLOCKS {
-        let density = match b.drive {
-            Drive::Zero => continue,
+    for (start, len, drive) in DRIVEN {
+        let density = match drive {
+            Drive::Zero => 0.0,
             Drive::AccelNoise => imu.accel_density,
             Drive::GyroNoise => imu.gyro_density,
             Drive::AccelBiasWalk => imu.accel_random_walk,
@@ -103,10 +103,41 @@ pub fn process_noise(imu: &ImuNoise, robot: &RobotPrior, dt: f32) -> ErrorState 
             Drive::RotationWalk => robot.rotation_random_walk,
             Drive::RadiusWalk => robot.radius_random_walk,
         };
-        q.rows_mut(b.start, b.dim).fill(density * density * dt);
+        q.rows_mut(start, len).fill(density * density * dt);
     }
     q
 }
+
+/// Number of blocks with process noise.
+#[allow(clippy::indexing_slicing)] // k < BLOCKS.len(); evaluated at compile time
+const DRIVEN_COUNT: usize = {
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        if !matches!(BLOCKS[k].drive, Drive::Zero) {
+            n += 1;
+        }
+        k += 1;
+    }
+    n
+};
+
+/// `(start, dimension, drive)` of the blocks with process noise, from the
+/// state table (constants, so the loop of [`process_noise`] unrolls into
+/// stores at fixed rows).
+#[allow(clippy::indexing_slicing)] // n < DRIVEN_COUNT, k < BLOCKS.len(); evaluated at compile time
+const DRIVEN: [(usize, usize, Drive); DRIVEN_COUNT] = {
+    let mut out = [(0, 0, Drive::Zero); DRIVEN_COUNT];
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        let b = BLOCKS[k];
+        if !matches!(b.drive, Drive::Zero) {
+            out[n] = (b.start, b.dim, b.drive);
+            n += 1;
+        }
+        k += 1;
+    }
+    out
+};
 
 /// Integrates the nominal state over one step with bias-corrected samples
 /// (Solà 2017, eq. 260). Clone and robot states do not move.
