@@ -275,11 +275,12 @@ pub fn decouple_clone(p: &mut Covariance) {
     }
 }
 
-/// The initial covariance: diagonal, each block's variance the square of
-/// the standard deviation its [`Prior`] names in the state table (the
-/// attitude's tilt on its first two components, yaw on the third); zero on
-/// the clone, which the caller sets by copying the pose ([`clone_pose`]).
-pub fn initial_covariance(init: &InitConfig, robot: &RobotPrior) -> Covariance {
+/// The diagonal of the initial covariance: each block's variance the
+/// square of the standard deviation its [`Prior`] names in the state table
+/// (the attitude's tilt on its first two components, yaw on the third);
+/// zero on the clone, which the caller sets by copying the pose
+/// ([`clone_pose`]).
+pub fn initial_variances(init: &InitConfig, robot: &RobotPrior) -> ErrorState {
     let mut d = ErrorState::zeros();
     for b in BLOCKS {
         let std = match b.prior {
@@ -300,7 +301,7 @@ pub fn initial_covariance(init: &InitConfig, robot: &RobotPrior) -> Covariance {
         };
         d.rows_mut(b.start, b.dim).fill(std * std);
     }
-    Covariance::from_diagonal(&d)
+    d
 }
 
 // The clone's position and attitude are adjacent.

@@ -232,7 +232,8 @@ impl EgoEkf {
     }
 
     fn begin(&mut self, t: Timestamp) {
-        self.p = covariance::initial_covariance(&self.config.init, &self.config.robot);
+        let d = covariance::initial_variances(&self.config.init, &self.config.robot);
+        self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
         self.clone_due = false;
         self.imu_clock.reset();

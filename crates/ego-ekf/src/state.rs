@@ -26,7 +26,7 @@
 //! [`REST_DIM`], a measurement's supporting columns ([`columns`]); and at
 //! run time the diagonal of the process noise
 //! ([`crate::propagate::process_noise`]) and the initial covariance
-//! ([`crate::covariance::initial_covariance`]). The covariance kernels
+//! ([`crate::covariance::initial_variances`]). The covariance kernels
 //! (`crate::kernels`) are written over [`DIM`] and [`CLONE`]. Adding a
 //! block of states is a row of the table (plus its nominal field in
 //! [`NominalState`] and its use in the models).
@@ -114,7 +114,7 @@ pub enum Drive {
 /// The initial standard deviation of a block: which one of the
 /// configuration ([`crate::config::InitConfig`],
 /// [`crate::config::RobotPrior`]) sets its diagonal of the initial
-/// covariance (see [`crate::covariance::initial_covariance`]).
+/// covariance (see [`crate::covariance::initial_variances`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Prior {
     /// None: set by the copy of the pose (the clone).

@@ -141,7 +141,7 @@ fn update_matches_joseph_form_and_gates() {
 #[test]
 fn the_initial_covariance_follows_the_state_table() {
     use ego_ekf::config::{InitConfig, RobotPrior};
-    use ego_ekf::covariance::initial_covariance;
+    use ego_ekf::covariance::initial_variances;
     use ego_ekf::state::{BA, BG, CL, CR, G, V};
     let init = InitConfig {
         position_std: 2.0,
@@ -159,7 +159,7 @@ fn the_initial_covariance_follows_the_state_table() {
         radius_std: 29.0,
         ..RobotPrior::default()
     };
-    let p = initial_covariance(&init, &robot);
+    let d = initial_variances(&init, &robot);
     let stds = [
         (P, 3, 2.0),
         (V, 3, 3.0),
@@ -178,6 +178,6 @@ fn the_initial_covariance_follows_the_state_table() {
     for (start, len, std) in stds {
         expected.rows_mut(start, len).fill(std * std);
     }
-    assert_eq!(p, Covariance::from_diagonal(&expected));
+    assert_eq!(d, expected);
     assert_eq!(CTH, CP + 3);
 }
