@@ -17,7 +17,7 @@ use crate::propagate::{
 };
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Verdict};
 use crate::state::{
-    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
+    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
 };
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
@@ -211,24 +211,7 @@ impl EgoEkf {
     }
 
     fn begin(&mut self, t: Timestamp) {
-        let i = &self.config.init;
-        let r = &self.config.robot;
-        let mut d = crate::state::ErrorState::zeros();
-        let blocks = [
-            (P, 3, i.position_std),
-            (V, 3, i.velocity_std),
-            (TH, 2, i.tilt_std),
-            (TH + 2, 1, i.yaw_std),
-            (BA, 3, i.accel_bias_std),
-            (BG, 3, i.gyro_bias_std),
-            (crate::state::G, 3, i.gravity_std),
-            (CL, 6, r.contact_std),
-            (RB, 3, r.rotation_std),
-            (RAD_L, 2, r.radius_std),
-        ];
-        for (start, len, std) in blocks {
-            d.rows_mut(start, len).fill(std * std);
-        }
+        let d = covariance::initial_variances(&self.config.init, &self.config.robot);
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
         self.clone_due = false;

@@ -38,7 +38,7 @@ pub mod flow;
 pub mod gap;
 pub mod grip;
 pub mod init;
-mod lanes;
+mod kernels;
 pub mod propagate;
 pub mod recovery;
 pub mod reference;
