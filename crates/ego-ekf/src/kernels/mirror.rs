@@ -109,7 +109,7 @@ pub(crate) fn mirror_leading(p: &mut Covariance, n: usize) {
 
 /// The transpose of a 4x4 block given by its columns: on hosts with SSE in
 /// eight shuffles ([`wide::f32x4::transpose`]; written out entry by entry,
-/// the compiler moved every entry on its own: two scalar moves each).
+/// the compiler moves every entry on its own: two scalar moves each).
 #[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn transpose4(a: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
