@@ -4,8 +4,9 @@
 //!
 //! - the shared vocabulary every crate speaks: [`time`] (integer nanoseconds),
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
-//!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
-//!   not fused, and the counts);
+//!   samples, the sensor traits drivers implement, flow optics), [`kinematics`]
+//!   (differential drive and lever arm, one home each), [`reject`] (why a
+//!   sample was not fused, and the counts);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
 //!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
 //!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
@@ -33,6 +34,7 @@ pub mod decompose;
 pub mod geometry;
 pub mod homography;
 pub mod image;
+pub mod kinematics;
 pub mod lk;
 pub mod pose;
 pub mod pyramid;

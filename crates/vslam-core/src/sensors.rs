@@ -9,9 +9,13 @@
 //! Core crates own these traits; drivers (`flow-sensor`, `wheel-odom`) and the
 //! host simulator implement them.
 
-use crate::geometry::{Extrinsics, Vec3};
+use crate::geometry::Vec3;
 use crate::reject::Reject;
 use crate::time::Timestamp;
+
+pub mod flow_optics;
+
+pub use flow_optics::{FlowOptics, FlowOpticsError};
 
 /// An IMU reading as read: gyro (rad/s) and accelerometer (m/s^2) in the IMU frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -172,77 +176,6 @@ pub struct OdometryDelta {
     pub dyaw: f32,
     /// Path length travelled (>= |translation|), metres.
     pub path_length: f32,
-}
-
-/// How a downward flow sensor's counts become metres: its resolution and its
-/// mounting. Counts to angle by `counts_per_radian`, angle to metres by the
-/// height of the sensor above the floor.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FlowOptics {
-    counts_per_radian: f32,
-    height: f32,
-    mount: Extrinsics,
-}
-
-/// Why flow optics could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FlowOpticsError {
-    /// `counts_per_radian` must be finite and positive.
-    BadResolution,
-    /// The height above the floor must be finite and positive.
-    BadHeight,
-}
-
-impl core::fmt::Display for FlowOpticsError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            FlowOpticsError::BadResolution => "counts per radian must be finite and positive",
-            FlowOpticsError::BadHeight => "flow sensor height must be finite and positive",
-        })
-    }
-}
-
-impl core::error::Error for FlowOpticsError {}
-
-impl FlowOptics {
-    /// Checks and builds the optics.
-    pub fn new(
-        counts_per_radian: f32,
-        height: f32,
-        mount: Extrinsics,
-    ) -> Result<Self, FlowOpticsError> {
-        if !(counts_per_radian.is_finite() && counts_per_radian > 0.0) {
-            return Err(FlowOpticsError::BadResolution);
-        }
-        if !(height.is_finite() && height > 0.0) {
-            return Err(FlowOpticsError::BadHeight);
-        }
-        Ok(FlowOptics {
-            counts_per_radian,
-            height,
-            mount,
-        })
-    }
-    /// Counts per radian of angular flow.
-    pub fn counts_per_radian(&self) -> f32 {
-        self.counts_per_radian
-    }
-    /// Height of the sensor above the floor, metres.
-    pub fn height(&self) -> f32 {
-        self.height
-    }
-    /// The sensor's mounting `T_BS`.
-    pub fn mount(&self) -> &Extrinsics {
-        &self.mount
-    }
-    /// Counts to angular flow, radians.
-    pub fn counts_to_radians(&self, counts: f32) -> f32 {
-        counts / self.counts_per_radian
-    }
-    /// Counts to metres of floor travelled under the sensor (small-angle).
-    pub fn counts_to_metres(&self, counts: f32) -> f32 {
-        self.counts_to_radians(counts) * self.height
-    }
 }
 
 /// Side length of a raw PixArt flow frame (35 x 35 pixels).

@@ -2,12 +2,13 @@
 //!
 //! A downward flow sensor (PixArt PMW3901 / PAA5100JE family) reports counts
 //! `(dx, dy)` of the floor's apparent motion since its previous report. Over
-//! the step `dt`: counts -> angle (`FlowOptics::counts_to_radians`) -> angular
-//! rate -> metres/s at the sensor height, taken here as the sensor's velocity
-//! over the floor along its own x and y (the flow-sensor driver's sign
-//! convention). Rotated into the robot frame by the mounting `R_RS`, with the
-//! lever arm removed using the gyro rate (`v_sensor = v_robot + w x t_RS`),
-//! it measures the robot origin's horizontal velocity, robot frame:
+//! the step `dt`: counts -> metres at the sensor height
+//! (`FlowOptics::floor_displacement`) -> metres/s, taken here as the sensor's
+//! velocity over the floor along its own x and y (the flow-sensor driver's
+//! sign convention). Rotated into the robot frame by the mounting `R_RS`, with
+//! the lever arm removed using the gyro rate (`v_sensor = v_robot + w x t_RS`,
+//! `FlowOptics::to_body`), it measures the robot origin's horizontal
+//! velocity, robot frame:
 //!
 //! `z = [R_RS v_S - (R_rb w) x t_RS]_xy`, `h = [R_rb (R_wb^T v + w x p_mid)]_xy`
 //!
@@ -36,14 +37,9 @@ pub fn flow_velocity(
     dt: f32,
 ) -> Vector2<f32> {
     let optics = &config.optics;
-    let v_s = Vec3::new(
-        optics.counts_to_metres(f32::from(sample.dx)) / dt,
-        optics.counts_to_metres(f32::from(sample.dy)) / dt,
-        0.0,
-    );
+    let v_s = optics.floor_displacement(sample) / dt;
     let w_r = q_rb * gyro;
-    let v_r = optics.mount().vector_to_body(&v_s) - w_r.cross(optics.mount().t_bs());
-    Vector2::new(v_r.x, v_r.y)
+    optics.to_body(&v_s, &w_r).xy()
 }
 
 /// Standard deviation of each velocity component, m/s, for a report's

@@ -32,6 +32,7 @@
 //! nothing, and the filter falls back to the constant-velocity bridge
 //! ([`crate::gap::bridge_gap`]).
 
+use vslam_core::kinematics::rim;
 use vslam_core::sensors::WheelRates;
 use vslam_core::time::nanos_to_seconds;
 use vslam_core::{Reject, SampleCounts, Timestamp};
@@ -165,8 +166,8 @@ impl GapOdometry {
         }
         let max = config.gap.max_wheel_speed;
         let wheel_speeds = [
-            geometry.radius_left * rates.left,
-            geometry.radius_right * rates.right,
+            rim(geometry.radius_left, rates.left),
+            rim(geometry.radius_right, rates.right),
         ];
         if wheel_speeds.iter().any(|v| libm::fabsf(*v) > max) {
             return Err(Reject::OutOfRange);

@@ -16,6 +16,7 @@
 //! Consecutive gated samples form a [`GatedRun`]; the filter re-examines its
 //! velocity when the run is due (see [`crate::recovery`]).
 
+use vslam_core::kinematics::{mid_axle, rim};
 use vslam_core::sensors::WheelRates;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -187,7 +188,10 @@ impl WheelFusion {
         self.stopped =
             libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
         let rows = wheel_rows(x, gyro, rates, grip);
-        let speed = 0.5 * (x.radius_left * rates.left + x.radius_right * rates.right);
+        let speed = mid_axle(
+            rim(x.radius_left, rates.left),
+            rim(x.radius_right, rates.right),
+        );
         let WheelUpdate {
             forward,
             forward_var: var_fwd,

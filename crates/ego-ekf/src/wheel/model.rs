@@ -26,6 +26,7 @@
 //! grip's lateral noise.
 
 use nalgebra::{Matrix3, SMatrix, SVector};
+use vslam_core::kinematics::{differential, mid_axle, rim};
 use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
@@ -384,9 +385,10 @@ pub fn wheel_rows(
     let (wl, wr) = (rates.left, rates.right);
     let (rl, rr) = (x.radius_left, x.radius_right);
 
+    let (vl, vr) = (rim(rl, wl), rim(rr, wr));
     let h_val = SVector::<f32, 4>::new(
-        w_mid.x - 0.5 * (rl * wl + rr * wr),
-        w_diff.x - (rr * wr - rl * wl),
+        w_mid.x - mid_axle(vl, vr),
+        w_diff.x - differential(vl, vr),
         w_mid.y,
         w_mid.z,
     );
