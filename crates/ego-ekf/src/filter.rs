@@ -267,8 +267,9 @@ impl EgoEkf {
     /// of the last moving step; see `clone_if_due`).
     ///
     /// Before initialisation the sample feeds the still-sample average and is
-    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
-    /// beyond the configured range are rejected with their reason and leave
+    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples at
+    /// or beyond the configured full scale ([`Reject::Saturated`]) are
+    /// rejected with their reason and leave
     /// the state untouched, except that the sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
     /// dead reckoning over the gap (or, without it, extrapolated at constant
@@ -285,11 +286,7 @@ impl EgoEkf {
     }
 
     fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
-        if sample.gyro().amax() > self.config.imu_gyro_max
-            || sample.accel().amax() > self.config.imu_accel_max
-        {
-            return Err(Reject::OutOfRange);
-        }
+        sample.check_range(self.config.imu_gyro_max, self.config.imu_accel_max)?;
         let previous = self.imu_clock.last();
         let dt = self.imu_clock.accept(sample.t());
         if self.initialised

@@ -85,7 +85,7 @@ fn bad_imu_samples_are_rejected_with_reasons_and_change_nothing() {
         (rest(1_000 * DT), Reject::OutOfOrder),
         (
             ImuSample::new(Timestamp(1_002 * DT), [0.0; 3], [0.0, 0.0, 500.0]).unwrap(),
-            Reject::OutOfRange,
+            Reject::Saturated,
         ),
     ];
     for (s, reason) in cases {
@@ -101,7 +101,7 @@ fn bad_imu_samples_are_rejected_with_reasons_and_change_nothing() {
     for r in [
         Reject::Duplicate,
         Reject::OutOfOrder,
-        Reject::OutOfRange,
+        Reject::Saturated,
         Reject::Gap,
     ] {
         assert_eq!(c.rejected(r), 1, "{r}");

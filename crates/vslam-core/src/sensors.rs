@@ -50,13 +50,22 @@ impl ImuSample {
     }
 
     /// Builds a sample and also rejects readings at or beyond the sensor's
-    /// full scale as [`Reject::Saturated`] (the true value is unknown there).
+    /// full scale as [`Reject::Saturated`] ([`ImuSample::check_range`]).
     pub fn with_range(raw: &RawImuSample, gyro_max: f32, accel_max: f32) -> Result<Self, Reject> {
         let s = ImuSample::new(raw.t, raw.gyro, raw.accel)?;
-        if s.gyro.amax() >= gyro_max || s.accel.amax() >= accel_max {
+        s.check_range(gyro_max, accel_max)?;
+        Ok(s)
+    }
+
+    /// The one range rule for IMU readings: any axis at or beyond the full
+    /// scale (`gyro_max` rad/s, `accel_max` m/s^2) is [`Reject::Saturated`],
+    /// the true value being unknown there. The estimator applies it at entry
+    /// ([`ImuSample::with_range`]), the EKF to every sample it is handed.
+    pub fn check_range(&self, gyro_max: f32, accel_max: f32) -> Result<(), Reject> {
+        if self.gyro.amax() >= gyro_max || self.accel.amax() >= accel_max {
             return Err(Reject::Saturated);
         }
-        Ok(s)
+        Ok(())
     }
 
     /// When the sample was taken.

@@ -33,6 +33,7 @@
 //! ([`crate::gap::bridge_gap`]).
 
 use vslam_core::kinematics::rim;
+use vslam_core::scale::disagreement;
 use vslam_core::sensors::WheelRates;
 use vslam_core::time::nanos_to_seconds;
 use vslam_core::{Reject, SampleCounts, Timestamp};
@@ -179,9 +180,10 @@ impl GapOdometry {
         let (mut left, mut right, mut geometry) = (rates.left, rates.right, *geometry);
         let (speed, _) = geometry.motion(left, right);
         if let Some(w) = witness.filter(|w| w.speed.is_finite() && w.std.is_finite()) {
-            let var = 0.5 * geometry.forward_std * geometry.forward_std + w.std * w.std;
-            let d = speed - w.speed;
-            if libm::fabsf(speed) > SLIP_MIN_SPEED && d * d > SLIP_GATE * var {
+            let wheel_var = 0.5 * geometry.forward_std * geometry.forward_std;
+            if libm::fabsf(speed) > SLIP_MIN_SPEED
+                && disagreement(speed, wheel_var, w.speed, w.std * w.std) > SLIP_GATE
+            {
                 let scale = w.speed / speed;
                 left *= scale;
                 right *= scale;

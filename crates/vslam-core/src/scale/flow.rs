@@ -9,7 +9,7 @@
 //! the gyro's x/y rates); a wheeled robot on a floor has next to none, and
 //! over a frame interval they integrate to nearly zero.
 //!
-//! Reports land in a [`FlowWindow`] as [`FlowStep`]s (body-origin
+//! Reports land in a [`FlowStepWindow`] as [`FlowStep`]s (body-origin
 //! displacement, heading change, confidence over the report's own interval);
 //! raw-frame flow ([`super::raw_flow`]) produces the same steps.
 
@@ -92,7 +92,7 @@ pub struct FlowSummary {
 
 /// A window of recent flow steps, queried per camera interval.
 #[derive(Clone, Debug)]
-pub struct FlowWindow<const N: usize> {
+pub struct FlowStepWindow<const N: usize> {
     params: FlowParams,
     steps: Deque<FlowStep, N>,
     clock: SampleClock,
@@ -100,10 +100,10 @@ pub struct FlowWindow<const N: usize> {
     counts: SampleCounts,
 }
 
-impl<const N: usize> FlowWindow<N> {
+impl<const N: usize> FlowStepWindow<N> {
     /// An empty window.
     pub fn new(params: FlowParams) -> Self {
-        FlowWindow {
+        FlowStepWindow {
             params,
             steps: Deque::new(),
             clock: SampleClock::new(params.max_step_ns),
@@ -295,7 +295,7 @@ mod tests {
         )
         .unwrap();
         let o = optics(mount);
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         assert_eq!(
             w.push_sample(&sample(0, 0, 0), &o, 0.0),
             Err(Reject::NotReady)
@@ -314,7 +314,7 @@ mod tests {
         let d = sensor_to_body(Vec2::new(0.0, 0.005), o.mount(), 0.05);
         assert!(d.norm() < 1e-6);
         // The same step, summed for a point 0.1 m ahead, is the sensor's motion again.
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         w.push_sample(&sample(0, 0, 0), &o, 0.0).unwrap_err();
         w.push_sample(&sample(10, 0, 125), &o, 0.05).unwrap();
         let s = w.summarize(Timestamp(0), Timestamp(10), &Vec3::new(0.1, 0.0, 0.0));
@@ -326,7 +326,7 @@ mod tests {
     #[test]
     fn low_quality_lowers_confidence_not_the_sample() {
         let o = optics(Extrinsics::identity());
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         let _ = w.push_sample(&sample(0, 0, 0), &o, 0.0);
         w.push_sample(&sample(100, 100, 0), &o, 0.0).unwrap();
         let dark = FlowSample {
