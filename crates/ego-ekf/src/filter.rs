@@ -427,9 +427,9 @@ impl EgoEkf {
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
         // too far ahead of the filter's time. Geometry and witness only then.
-        if GapOdometry::during_gap(now, rates.t, &self.config) {
+        if GapOdometry::during_gap(now, rates.t(), &self.config) {
             let geometry = wheel_geometry(&self.x, &self.grip);
-            let witness = self.speed_witness(rates.t);
+            let witness = self.speed_witness(rates.t());
             let _ = self
                 .gap_odometry
                 .offer(now, rates, &geometry, witness, &self.config);
@@ -450,7 +450,7 @@ impl EgoEkf {
         {
             let verdict = self.re_examine(rates, inn);
             inn.recovery = Some(verdict);
-            self.recovery.record(rates.t, verdict);
+            self.recovery.record(rates.t(), verdict);
         }
         debug_assert!(covariance::looks_valid(&self.p));
         out
@@ -480,8 +480,8 @@ impl EgoEkf {
         let v = self.robot_velocity();
         let flow_config = self.config.flow;
         let max_age = self.config.recovery.flow_max_age_ns;
-        let flow = self.flow.witness(rates.t).filter(|w| {
-            flow_config.is_some() && rates.t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age
+        let flow = self.flow.witness(rates.t()).filter(|w| {
+            flow_config.is_some() && rates.t().as_nanos().abs_diff(w.t.as_nanos()) <= max_age
         });
         let var = self.p.fixed_view::<2, 2>(V, V).trace() * 0.5;
         let run = *self.wheel.gated_run();

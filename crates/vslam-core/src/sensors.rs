@@ -146,18 +146,33 @@ impl FlowSample {
             .iter()
             .any(|d| *d == i16::MAX || *d == i16::MIN)
     }
+
+    /// The one rule for a report whose motion cannot be used as a
+    /// measurement: [`Reject::Saturated`] ([`Self::is_saturated`]), else
+    /// [`Reject::LowQuality`] (not [`Self::is_valid`]). Such a report still
+    /// ends the interval of the next one's counts, so it is judged after the
+    /// reader's clock has taken its time stamp; the EKF refuses it, the scale
+    /// pipeline grades it to zero confidence.
+    pub fn check_motion(&self) -> Result<(), Reject> {
+        if self.is_saturated() {
+            return Err(Reject::Saturated);
+        }
+        if !self.is_valid() {
+            return Err(Reject::LowQuality);
+        }
+        Ok(())
+    }
 }
 
 /// Wheel angular rates (rad/s, positive = forward) over an interval, as
-/// `wheel-odom` derives them from encoder counts; the EKF's wheel measurement.
+/// `wheel-odom` derives them from encoder counts; the EKF's wheel
+/// measurement. Validated: both rates are finite (the fields are private,
+/// so no later code checks again).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelRates {
-    /// End of the interval the rates were measured over.
-    pub t: Timestamp,
-    /// Left wheel angular rate, rad/s.
-    pub left: f32,
-    /// Right wheel angular rate, rad/s.
-    pub right: f32,
+    t: Timestamp,
+    left: f32,
+    right: f32,
 }
 
 impl WheelRates {
@@ -167,6 +182,18 @@ impl WheelRates {
             return Err(Reject::NonFinite);
         }
         Ok(WheelRates { t, left, right })
+    }
+    /// End of the interval the rates were measured over.
+    pub fn t(&self) -> Timestamp {
+        self.t
+    }
+    /// Left wheel angular rate, rad/s (finite).
+    pub fn left(&self) -> f32 {
+        self.left
+    }
+    /// Right wheel angular rate, rad/s (finite).
+    pub fn right(&self) -> f32 {
+        self.right
     }
 }
 
@@ -264,7 +291,12 @@ mod tests {
         s.squal = 0;
         s.shutter = 0x1E00;
         assert!(s.is_valid());
+        assert_eq!(s.check_motion(), Ok(()));
         s.dx = i16::MIN;
         assert!(s.is_saturated());
+        assert_eq!(s.check_motion(), Err(Reject::Saturated));
+        s.dx = 0;
+        s.shutter = 0x1F00;
+        assert_eq!(s.check_motion(), Err(Reject::LowQuality));
     }
 }

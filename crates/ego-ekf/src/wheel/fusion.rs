@@ -129,7 +129,7 @@ impl WheelFusion {
                 let within = |since: Option<Timestamp>| {
                     since.is_some_and(|s| {
                         rates
-                            .t
+                            .t()
                             .nanos_since(s)
                             .is_some_and(|d| d <= recovery.silence_ns)
                     })
@@ -140,15 +140,15 @@ impl WheelFusion {
             Ok(_) => {
                 let silent_before = !self.last_fused.is_some_and(|f| {
                     rates
-                        .t
+                        .t()
                         .nanos_since(f)
                         .is_some_and(|d| d <= recovery.silence_ns)
                 });
                 if silent_before {
-                    self.resumed = Some(rates.t);
+                    self.resumed = Some(rates.t());
                 }
                 self.run.clear();
-                self.last_fused = Some(rates.t);
+                self.last_fused = Some(rates.t());
             }
             Err(_) => {}
         }
@@ -169,13 +169,10 @@ impl WheelFusion {
         grip: &GripParams,
         now: Timestamp,
     ) -> Result<WheelInnovation, Reject> {
-        if !(rates.left.is_finite() && rates.right.is_finite()) {
-            return Err(Reject::NonFinite);
-        }
-        match rates.t.nanos_since(now) {
+        match rates.t().nanos_since(now) {
             Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
             None if now
-                .nanos_since(rates.t)
+                .nanos_since(rates.t())
                 .is_some_and(|d| d > self.max_age_ns) =>
             {
                 return Err(Reject::OutOfOrder);
@@ -184,13 +181,13 @@ impl WheelFusion {
         }
         // Gaps are not fatal for rates (they are an average over the
         // interval), but the clock re-anchors and the sample is counted.
-        self.clock.accept(rates.t)?;
-        self.stopped =
-            libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
+        self.clock.accept(rates.t())?;
+        self.stopped = libm::fabsf(rates.left()) < self.stop_rate
+            && libm::fabsf(rates.right()) < self.stop_rate;
         let rows = wheel_rows(x, gyro, rates, grip);
         let speed = mid_axle(
-            rim(x.radius_left, rates.left),
-            rim(x.radius_right, rates.right),
+            rim(x.radius_left, rates.left()),
+            rim(x.radius_right, rates.right()),
         );
         let WheelUpdate {
             forward,

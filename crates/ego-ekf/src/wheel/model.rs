@@ -382,7 +382,7 @@ pub fn wheel_rows(
     let u_diff = gyro.cross(&lever);
     let w_mid = r_rb * u_mid;
     let w_diff = r_rb * u_diff;
-    let (wl, wr) = (rates.left, rates.right);
+    let (wl, wr) = (rates.left(), rates.right());
     let (rl, rr) = (x.radius_left, x.radius_right);
 
     let (vl, vr) = (rim(rl, wl), rim(rr, wr));
