@@ -170,7 +170,7 @@ impl WheelRows {
 
     /// `P H^T` for a symmetric `P` from the nonzero columns of `H` only,
     /// one row `p` of `P` at a time (its 20 entries at [`SUPPORT`], each
-    /// read once): the mid-point rows from their factors ([`MidFactors`]:
+    /// read once): the mid-point rows from their factors (`MidFactors`:
     /// two 3x3 products and four cross products), the differential row
     /// from its coefficients on gyro bias, contact-point difference,
     /// `R_rb` and radii. About 75 operations and 20 loads per row of `P`,

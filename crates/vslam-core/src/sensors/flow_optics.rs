@@ -98,3 +98,41 @@ impl FlowOptics {
         sensor_plane_to_body(in_plane, &self.mount, rotation)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Rot3;
+    use crate::time::Timestamp;
+
+    #[test]
+    fn counts_become_the_body_origins_motion() {
+        // Sensor x along body y, 0.1 m ahead of the body origin.
+        let mount = Extrinsics::new(
+            Rot3::from_euler_angles(0.0, 0.0, core::f32::consts::FRAC_PI_2),
+            Vec3::new(0.1, 0.0, 0.0),
+        )
+        .unwrap();
+        let o = FlowOptics::new(500.0, 0.02, mount).unwrap();
+        let s = FlowSample {
+            t: Timestamp(0),
+            dx: 250,
+            dy: -125,
+            ..FlowSample::default()
+        };
+        // 250 counts / 500 per rad * 0.02 m = 0.01 m; -125 counts = -0.005 m.
+        let d = o.floor_displacement(&s);
+        assert!((d - Vec2::new(0.01, -0.005)).norm() < 1e-7);
+        // Not turning: sensor x is body y, sensor y is body -x.
+        let b = o.to_body(&d, &Vec3::zeros());
+        assert!((b - Vec3::new(0.005, 0.01, 0.0)).norm() < 1e-7, "{b:?}");
+        // Turning in place by 0.1 rad: the sensor moves 0.01 m to the left
+        // (sensor +x), the origin not at all.
+        let turn = o.to_body(&Vec2::new(0.01, 0.0), &Vec3::new(0.0, 0.0, 0.1));
+        assert!(turn.norm() < 1e-7, "{turn:?}");
+        assert_eq!(
+            FlowOptics::new(0.0, 0.02, mount),
+            Err(FlowOpticsError::BadResolution)
+        );
+    }
+}
