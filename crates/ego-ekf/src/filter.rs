@@ -1,6 +1,7 @@
 //! The filter: one type that takes IMU, wheel and flow samples, owns the
 //! state, covariance, grip and per-sensor status, and reports the estimate.
 
+use vslam_core::kinematics::add_lever_arm;
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -598,7 +599,7 @@ impl EgoEkf {
     /// Velocity of the robot origin (mid-axle), robot frame, m/s.
     pub fn robot_velocity(&self) -> Vec3 {
         let v_b = self.x.q_wb.inverse() * self.x.v_wb;
-        self.x.q_rb * (v_b + self.angular_velocity().cross(&self.x.p_b_robot()))
+        self.x.q_rb * add_lever_arm(&v_b, &self.angular_velocity(), &self.x.p_b_robot())
     }
 
     /// Bias-corrected angular rate of the latest step, body frame, rad/s.

@@ -20,6 +20,7 @@
 //! `relative_std` of the speed (height and resolution errors).
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2};
+use vslam_core::kinematics::add_lever_arm;
 use vslam_core::sensors::FlowSample;
 
 use crate::config::FlowConfig;
@@ -64,7 +65,7 @@ pub fn flow_measurement(
     let r_wb = x.q_wb.to_rotation_matrix().into_inner();
     let v_b = r_wb.transpose() * x.v_wb;
     let p_mid = x.p_b_robot();
-    let u_mid = v_b + gyro.cross(&p_mid);
+    let u_mid = add_lever_arm(&v_b, gyro, &p_mid);
     let w_mid = r_rb * u_mid;
     let blocks: [(usize, Matrix3<f32>); 6] = [
         (V, r_rb * r_wb.transpose()),

@@ -26,7 +26,7 @@
 //! grip's lateral noise.
 
 use nalgebra::{Matrix3, SMatrix, SVector};
-use vslam_core::kinematics::{differential, mid_axle, rim};
+use vslam_core::kinematics::{add_lever_arm, differential, mid_axle, rim};
 use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
@@ -378,7 +378,7 @@ pub fn wheel_rows(
     let v_b = r_wb.transpose() * x.v_wb;
     let p_mid = x.p_b_robot();
     let lever = x.p_br - x.p_bl;
-    let u_mid = v_b + gyro.cross(&p_mid);
+    let u_mid = add_lever_arm(&v_b, gyro, &p_mid);
     let u_diff = gyro.cross(&lever);
     let w_mid = r_rb * u_mid;
     let w_diff = r_rb * u_diff;
