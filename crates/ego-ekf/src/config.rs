@@ -285,9 +285,12 @@ pub struct FilterConfig {
     pub imu_noise: ImuNoise,
     /// Largest accepted IMU step, ns (larger steps are [`vslam_core::Reject::Gap`]).
     pub imu_max_dt_ns: u64,
-    /// Largest plausible angular rate, rad/s; larger is [`vslam_core::Reject::OutOfRange`].
+    /// Full scale of the gyroscope, rad/s; a reading at or beyond it is
+    /// [`vslam_core::Reject::Saturated`]
+    /// ([`vslam_core::sensors::ImuSample::check_range`]).
     pub imu_gyro_max: f32,
-    /// Largest plausible specific force, m/s^2; larger is [`vslam_core::Reject::OutOfRange`].
+    /// Full scale of the accelerometer, m/s^2; a reading at or beyond it is
+    /// [`vslam_core::Reject::Saturated`].
     pub imu_accel_max: f32,
     /// Largest accepted step between wheel samples, ns.
     pub wheel_max_dt_ns: u64,

@@ -1,6 +1,7 @@
 //! The filter: one type that takes IMU, wheel and flow samples, owns the
 //! state, covariance, grip and per-sensor status, and reports the estimate.
 
+use vslam_core::kinematics::add_lever_arm;
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -230,8 +231,9 @@ impl EgoEkf {
     /// of the last moving step; see `clone_if_due`).
     ///
     /// Before initialisation the sample feeds the still-sample average and is
-    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples
-    /// beyond the configured range are rejected with their reason and leave
+    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples at
+    /// or beyond the configured full scale ([`Reject::Saturated`]) are
+    /// rejected with their reason and leave
     /// the state untouched, except that the sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
     /// dead reckoning over the gap (or, without it, extrapolated at constant
@@ -248,11 +250,7 @@ impl EgoEkf {
     }
 
     fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
-        if sample.gyro().amax() > self.config.imu_gyro_max
-            || sample.accel().amax() > self.config.imu_accel_max
-        {
-            return Err(Reject::OutOfRange);
-        }
+        sample.check_range(self.config.imu_gyro_max, self.config.imu_accel_max)?;
         let previous = self.imu_clock.last();
         let dt = self.imu_clock.accept(sample.t());
         if self.initialised
@@ -380,17 +378,17 @@ impl EgoEkf {
     /// [`WheelInnovation::recovery`] and counted ([`EgoEkf::recovery`]).
     pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
-            return Err(self.wheel.refuse(rates.t, Reject::NotReady));
+            return Err(self.wheel.refuse(rates.t(), Reject::NotReady));
         };
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
         // too far ahead of the filter's time. Geometry and witness only then.
-        if GapOdometry::during_gap(now, rates.t, &self.config) {
+        if GapOdometry::during_gap(now, rates.t(), &self.config) {
             let geometry = wheel_geometry(&self.x, &self.grip);
             let witness = recovery::speed_witness(
                 &self.config.recovery,
-                self.flow_witness_at(rates.t),
-                rates.t,
+                self.flow_witness_at(rates.t()),
+                rates.t(),
             );
             let _ = self
                 .gap_odometry
@@ -412,7 +410,7 @@ impl EgoEkf {
         {
             let verdict = self.re_examine(rates, inn);
             inn.recovery = Some(verdict);
-            self.recovery.record(rates.t, verdict);
+            self.recovery.record(rates.t(), verdict);
         }
         debug_assert!(covariance::looks_valid(&self.p));
         out
@@ -426,8 +424,8 @@ impl EgoEkf {
         let v = self.robot_velocity();
         let flow = recovery::recent(
             &self.config.recovery,
-            self.flow_witness_at(rates.t),
-            rates.t,
+            self.flow_witness_at(rates.t()),
+            rates.t(),
         );
         let var = self.p.fixed_view::<2, 2>(V, V).trace() * 0.5;
         let run = *self.wheel.watch().run();
@@ -539,7 +537,7 @@ impl EgoEkf {
     /// Velocity of the robot origin (mid-axle), robot frame, m/s.
     pub fn robot_velocity(&self) -> Vec3 {
         let v_b = self.x.q_wb.inverse() * self.x.v_wb;
-        self.x.q_rb * (v_b + self.angular_velocity().cross(&self.x.p_b_robot()))
+        self.x.q_rb * add_lever_arm(&v_b, &self.angular_velocity(), &self.x.p_b_robot())
     }
 
     /// Bias-corrected angular rate of the latest step, body frame, rad/s.

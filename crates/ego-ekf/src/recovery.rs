@@ -52,6 +52,7 @@
 
 use nalgebra::Vector2;
 use vslam_core::Timestamp;
+use vslam_core::scale::disagreement;
 
 use crate::config::{FlowConfig, RecoveryConfig};
 use crate::covariance::reset_velocity;
@@ -360,8 +361,12 @@ pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
         let d = f.velocity - e.filter_velocity;
         let flow_var = f.std * f.std;
         let flow_vs_filter = d.norm_squared() / (flow_var + e.filter_var).max(f32::MIN_POSITIVE);
-        let dw = e.wheel_speed - f.velocity.x;
-        let wheel_vs_flow = dw * dw / (flow_var + e.wheel_std * e.wheel_std).max(f32::MIN_POSITIVE);
+        let wheel_vs_flow = disagreement(
+            e.wheel_speed,
+            e.wheel_std * e.wheel_std,
+            f.velocity.x,
+            flow_var,
+        );
         // NaN compares false: no reset on a non-finite comparison.
         if flow_vs_filter > e.flow_gate || wheel_vs_flow <= e.wheel_gate {
             return Verdict::Reset(ResetSource::Flow);

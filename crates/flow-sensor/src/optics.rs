@@ -52,8 +52,6 @@ pub fn angular_flow(sample: &FlowSample, optics: &FlowOptics) -> [f32; 2] {
 /// The floor travel `[x, y]` under the sensor, metres, sensor axes
 /// (small-angle, at the optics' height; rotation not compensated).
 pub fn floor_displacement(sample: &FlowSample, optics: &FlowOptics) -> [f32; 2] {
-    [
-        optics.counts_to_metres(f32::from(sample.dx)),
-        optics.counts_to_metres(f32::from(sample.dy)),
-    ]
+    let d = optics.floor_displacement(sample);
+    [d.x, d.y]
 }

@@ -4,7 +4,8 @@
 //!
 //! - the shared vocabulary every crate speaks: [`time`] (integer nanoseconds),
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
-//!   samples, the sensor traits drivers implement), [`stream`] (the sensor
+//!   samples, the sensor traits drivers implement, flow optics), [`kinematics`]
+//!   (differential drive and lever arm, one home each), [`stream`] (the sensor
 //!   registry: every kind of sample, and arrays indexed by it), [`reject`] (why
 //!   a sample was not fused, and the counts);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
@@ -64,6 +65,7 @@ pub mod decompose;
 pub mod geometry;
 pub mod homography;
 pub mod image;
+pub mod kinematics;
 pub mod lk;
 pub mod pose;
 pub mod pyramid;

@@ -9,9 +9,13 @@
 //! Core crates own these traits; drivers (`flow-sensor`, `wheel-odom`) and the
 //! host simulator implement them.
 
-use crate::geometry::{Extrinsics, Vec3};
+use crate::geometry::Vec3;
 use crate::reject::Reject;
 use crate::time::Timestamp;
+
+pub mod flow_optics;
+
+pub use flow_optics::{FlowOptics, FlowOpticsError};
 
 /// An IMU reading as read: gyro (rad/s) and accelerometer (m/s^2) in the IMU frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,13 +50,22 @@ impl ImuSample {
     }
 
     /// Builds a sample and also rejects readings at or beyond the sensor's
-    /// full scale as [`Reject::Saturated`] (the true value is unknown there).
+    /// full scale as [`Reject::Saturated`] ([`ImuSample::check_range`]).
     pub fn with_range(raw: &RawImuSample, gyro_max: f32, accel_max: f32) -> Result<Self, Reject> {
         let s = ImuSample::new(raw.t, raw.gyro, raw.accel)?;
-        if s.gyro.amax() >= gyro_max || s.accel.amax() >= accel_max {
+        s.check_range(gyro_max, accel_max)?;
+        Ok(s)
+    }
+
+    /// The one range rule for IMU readings: any axis at or beyond the full
+    /// scale (`gyro_max` rad/s, `accel_max` m/s^2) is [`Reject::Saturated`],
+    /// the true value being unknown there. The estimator applies it at entry
+    /// ([`ImuSample::with_range`]), the EKF to every sample it is handed.
+    pub fn check_range(&self, gyro_max: f32, accel_max: f32) -> Result<(), Reject> {
+        if self.gyro.amax() >= gyro_max || self.accel.amax() >= accel_max {
             return Err(Reject::Saturated);
         }
-        Ok(s)
+        Ok(())
     }
 
     /// When the sample was taken.
@@ -133,18 +146,33 @@ impl FlowSample {
             .iter()
             .any(|d| *d == i16::MAX || *d == i16::MIN)
     }
+
+    /// The one rule for a report whose motion cannot be used as a
+    /// measurement: [`Reject::Saturated`] ([`Self::is_saturated`]), else
+    /// [`Reject::LowQuality`] (not [`Self::is_valid`]). Such a report still
+    /// ends the interval of the next one's counts, so it is judged after the
+    /// reader's clock has taken its time stamp; the EKF refuses it, the scale
+    /// pipeline grades it to zero confidence.
+    pub fn check_motion(&self) -> Result<(), Reject> {
+        if self.is_saturated() {
+            return Err(Reject::Saturated);
+        }
+        if !self.is_valid() {
+            return Err(Reject::LowQuality);
+        }
+        Ok(())
+    }
 }
 
 /// Wheel angular rates (rad/s, positive = forward) over an interval, as
-/// `wheel-odom` derives them from encoder counts; the EKF's wheel measurement.
+/// `wheel-odom` derives them from encoder counts; the EKF's wheel
+/// measurement. Validated: both rates are finite (the fields are private,
+/// so no later code checks again).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelRates {
-    /// End of the interval the rates were measured over.
-    pub t: Timestamp,
-    /// Left wheel angular rate, rad/s.
-    pub left: f32,
-    /// Right wheel angular rate, rad/s.
-    pub right: f32,
+    t: Timestamp,
+    left: f32,
+    right: f32,
 }
 
 impl WheelRates {
@@ -154,6 +182,18 @@ impl WheelRates {
             return Err(Reject::NonFinite);
         }
         Ok(WheelRates { t, left, right })
+    }
+    /// End of the interval the rates were measured over.
+    pub fn t(&self) -> Timestamp {
+        self.t
+    }
+    /// Left wheel angular rate, rad/s (finite).
+    pub fn left(&self) -> f32 {
+        self.left
+    }
+    /// Right wheel angular rate, rad/s (finite).
+    pub fn right(&self) -> f32 {
+        self.right
     }
 }
 
@@ -172,77 +212,6 @@ pub struct OdometryDelta {
     pub dyaw: f32,
     /// Path length travelled (>= |translation|), metres.
     pub path_length: f32,
-}
-
-/// How a downward flow sensor's counts become metres: its resolution and its
-/// mounting. Counts to angle by `counts_per_radian`, angle to metres by the
-/// height of the sensor above the floor.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FlowOptics {
-    counts_per_radian: f32,
-    height: f32,
-    mount: Extrinsics,
-}
-
-/// Why flow optics could not be built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FlowOpticsError {
-    /// `counts_per_radian` must be finite and positive.
-    BadResolution,
-    /// The height above the floor must be finite and positive.
-    BadHeight,
-}
-
-impl core::fmt::Display for FlowOpticsError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            FlowOpticsError::BadResolution => "counts per radian must be finite and positive",
-            FlowOpticsError::BadHeight => "flow sensor height must be finite and positive",
-        })
-    }
-}
-
-impl core::error::Error for FlowOpticsError {}
-
-impl FlowOptics {
-    /// Checks and builds the optics.
-    pub fn new(
-        counts_per_radian: f32,
-        height: f32,
-        mount: Extrinsics,
-    ) -> Result<Self, FlowOpticsError> {
-        if !(counts_per_radian.is_finite() && counts_per_radian > 0.0) {
-            return Err(FlowOpticsError::BadResolution);
-        }
-        if !(height.is_finite() && height > 0.0) {
-            return Err(FlowOpticsError::BadHeight);
-        }
-        Ok(FlowOptics {
-            counts_per_radian,
-            height,
-            mount,
-        })
-    }
-    /// Counts per radian of angular flow.
-    pub fn counts_per_radian(&self) -> f32 {
-        self.counts_per_radian
-    }
-    /// Height of the sensor above the floor, metres.
-    pub fn height(&self) -> f32 {
-        self.height
-    }
-    /// The sensor's mounting `T_BS`.
-    pub fn mount(&self) -> &Extrinsics {
-        &self.mount
-    }
-    /// Counts to angular flow, radians.
-    pub fn counts_to_radians(&self, counts: f32) -> f32 {
-        counts / self.counts_per_radian
-    }
-    /// Counts to metres of floor travelled under the sensor (small-angle).
-    pub fn counts_to_metres(&self, counts: f32) -> f32 {
-        self.counts_to_radians(counts) * self.height
-    }
 }
 
 /// Side length of a raw PixArt flow frame (35 x 35 pixels).
@@ -322,7 +291,12 @@ mod tests {
         s.squal = 0;
         s.shutter = 0x1E00;
         assert!(s.is_valid());
+        assert_eq!(s.check_motion(), Ok(()));
         s.dx = i16::MIN;
         assert!(s.is_saturated());
+        assert_eq!(s.check_motion(), Err(Reject::Saturated));
+        s.dx = 0;
+        s.shutter = 0x1F00;
+        assert_eq!(s.check_motion(), Err(Reject::LowQuality));
     }
 }

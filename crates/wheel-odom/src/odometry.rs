@@ -24,6 +24,7 @@
 use crate::arc::integrate_arc;
 use core::fmt;
 use vslam_core::geometry::Vec3;
+use vslam_core::kinematics::rim;
 use vslam_core::sensors::{OdometryDelta, WheelRates, WheelTicks};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -240,8 +241,8 @@ impl DiffDriveOdometry {
         let p = &self.params;
         let left_rad = p.ticks_to_radians(dl);
         let right_rad = p.ticks_to_radians(dr);
-        let left_m = left_rad * p.left_radius;
-        let right_m = right_rad * p.right_radius;
+        let left_m = rim(p.left_radius, left_rad);
+        let right_m = rim(p.right_radius, right_rad);
         let max_travel = p.max_wheel_speed * dt;
         if !(libm::fabsf(left_m) <= max_travel && libm::fabsf(right_m) <= max_travel) {
             return Err(Reject::OutOfRange);

@@ -42,7 +42,7 @@ fn straight_line_is_exact() {
     assert!(close(s.delta.path_length, d, 1e-7));
     assert_eq!((s.delta.t0, s.delta.t1), (Timestamp(0), Timestamp(20 * MS)));
     let rate = 100.0 / TPR as f32 * TAU / 0.02;
-    assert!(close(s.rates.left, rate, 1e-4) && close(s.rates.right, rate, 1e-4));
+    assert!(close(s.rates.left(), rate, 1e-4) && close(s.rates.right(), rate, 1e-4));
     assert!(close(s.velocity.forward, d / 0.02, 1e-5));
     assert_eq!(s.velocity.yaw_rate, 0.0);
     assert_eq!(o.counts().fused(), 2);

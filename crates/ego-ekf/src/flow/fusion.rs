@@ -172,12 +172,7 @@ impl FlowFusion {
         if dt.is_nan() || dt <= 0.0 {
             return Err(Reject::Degenerate);
         }
-        if sample.is_saturated() {
-            return Err(Reject::Saturated);
-        }
-        if !sample.is_valid() {
-            return Err(Reject::LowQuality);
-        }
+        sample.check_motion()?;
         let z = flow_velocity(sample, config, &x.q_rb, gyro, dt);
         if !z.iter().all(|v| v.is_finite()) {
             return Err(Reject::NonFinite);

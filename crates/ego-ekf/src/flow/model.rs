@@ -2,12 +2,13 @@
 //!
 //! A downward flow sensor (PixArt PMW3901 / PAA5100JE family) reports counts
 //! `(dx, dy)` of the floor's apparent motion since its previous report. Over
-//! the step `dt`: counts -> angle (`FlowOptics::counts_to_radians`) -> angular
-//! rate -> metres/s at the sensor height, taken here as the sensor's velocity
-//! over the floor along its own x and y (the flow-sensor driver's sign
-//! convention). Rotated into the robot frame by the mounting `R_RS`, with the
-//! lever arm removed using the gyro rate (`v_sensor = v_robot + w x t_RS`),
-//! it measures the robot origin's horizontal velocity, robot frame:
+//! the step `dt`: counts -> metres at the sensor height
+//! (`FlowOptics::floor_displacement`) -> metres/s, taken here as the sensor's
+//! velocity over the floor along its own x and y (the flow-sensor driver's
+//! sign convention). Rotated into the robot frame by the mounting `R_RS`, with
+//! the lever arm removed using the gyro rate (`v_sensor = v_robot + w x t_RS`,
+//! `FlowOptics::to_body`), it measures the robot origin's horizontal
+//! velocity, robot frame:
 //!
 //! `z = [R_RS v_S - (R_rb w) x t_RS]_xy`, `h = [R_rb (R_wb^T v + w x p_mid)]_xy`
 //!
@@ -19,6 +20,7 @@
 //! `relative_std` of the speed (height and resolution errors).
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2};
+use vslam_core::kinematics::add_lever_arm;
 use vslam_core::sensors::FlowSample;
 
 use crate::config::FlowConfig;
@@ -36,14 +38,9 @@ pub fn flow_velocity(
     dt: f32,
 ) -> Vector2<f32> {
     let optics = &config.optics;
-    let v_s = Vec3::new(
-        optics.counts_to_metres(f32::from(sample.dx)) / dt,
-        optics.counts_to_metres(f32::from(sample.dy)) / dt,
-        0.0,
-    );
+    let v_s = optics.floor_displacement(sample) / dt;
     let w_r = q_rb * gyro;
-    let v_r = optics.mount().vector_to_body(&v_s) - w_r.cross(optics.mount().t_bs());
-    Vector2::new(v_r.x, v_r.y)
+    optics.to_body(&v_s, &w_r).xy()
 }
 
 /// Standard deviation of each velocity component, m/s, for a report's
@@ -68,7 +65,7 @@ pub fn flow_measurement(
     let r_wb = x.q_wb.to_rotation_matrix().into_inner();
     let v_b = r_wb.transpose() * x.v_wb;
     let p_mid = x.p_b_robot();
-    let u_mid = v_b + gyro.cross(&p_mid);
+    let u_mid = add_lever_arm(&v_b, gyro, &p_mid);
     let w_mid = r_rb * u_mid;
     let blocks: [(usize, Matrix3<f32>); 6] = [
         (V, r_rb * r_wb.transpose()),

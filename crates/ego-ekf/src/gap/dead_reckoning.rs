@@ -6,7 +6,8 @@
 //! sec. 5.2.4, eqs. 5.6-5.9; midpoint heading): for a step of `dt` with
 //! wheel rates `w_l`, `w_r`, radii `r_l`, `r_r` and track `L`,
 //!
-//! - speed `v = (r_l w_l + r_r w_r) / 2`, yaw rate `w = (r_r w_r - r_l w_l) / L`;
+//! - speed `v = (r_l w_l + r_r w_r) / 2`, yaw rate `w = (r_r w_r - r_l w_l) / L`
+//!   (the shared formulas of [`vslam_core::kinematics::diff_drive`]);
 //! - `psi_m = psi + w dt / 2`, `x += v dt cos psi_m`, `y += v dt sin psi_m`,
 //!   `psi += w dt`.
 //!
@@ -27,6 +28,7 @@
 //!   motion at the end (the filter's velocity after the gap).
 
 use nalgebra::{Matrix2x3, Matrix3, RowVector3, Vector3};
+use vslam_core::kinematics::{mid_axle, rim, turn};
 
 /// What the filter knows of the wheels when a sample is integrated.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,8 +57,8 @@ impl WheelGeometry {
 
     /// Forward speed and yaw rate for wheel rates `left`, `right`, rad/s.
     pub fn motion(&self, left: f32, right: f32) -> (f32, f32) {
-        let (vl, vr) = (self.radius_left * left, self.radius_right * right);
-        (0.5 * (vl + vr), (vr - vl) / self.track)
+        let (vl, vr) = (rim(self.radius_left, left), rim(self.radius_right, right));
+        (mid_axle(vl, vr), turn(vl, vr, self.track))
     }
 
     /// Variance of the yaw rate one sample measures, (rad/s)^2.

@@ -9,7 +9,8 @@
 //! covers the anchor); later ones extend it. Refused, counted in
 //! [`GapOdometry::counts`], and left out of the integration:
 //!
-//! - non-finite rates ([`Reject::NonFinite`]);
+//! - rates whose integration overflows ([`Reject::NonFinite`]; the rates
+//!   themselves are finite by type);
 //! - a time stamp not after the previous integrated one
 //!   ([`Reject::OutOfOrder`], [`Reject::Duplicate`]);
 //! - a wheel speed above `GapConfig::max_wheel_speed`
@@ -32,6 +33,8 @@
 //! nothing, and the filter falls back to the constant-velocity bridge
 //! ([`crate::gap::bridge_gap`]).
 
+use vslam_core::kinematics::rim;
+use vslam_core::scale::disagreement;
 use vslam_core::sensors::WheelRates;
 use vslam_core::time::nanos_to_seconds;
 use vslam_core::{Reject, SampleCounts, Timestamp};
@@ -128,7 +131,7 @@ impl GapOdometry {
         witness: Option<SpeedWitness>,
         config: &FilterConfig,
     ) -> Option<Result<(), Reject>> {
-        if !Self::during_gap(imu_last, rates.t, config) {
+        if !Self::during_gap(imu_last, rates.t(), config) {
             return None;
         }
         if self.anchor != Some(imu_last) {
@@ -152,10 +155,7 @@ impl GapOdometry {
         witness: Option<SpeedWitness>,
         config: &FilterConfig,
     ) -> Result<(), Reject> {
-        if !(rates.left.is_finite() && rates.right.is_finite()) {
-            return Err(Reject::NonFinite);
-        }
-        let dt_ns = match rates.t.nanos_since(self.last) {
+        let dt_ns = match rates.t().nanos_since(self.last) {
             None => return Err(Reject::OutOfOrder),
             Some(0) => return Err(Reject::Duplicate),
             Some(d) => d,
@@ -165,8 +165,8 @@ impl GapOdometry {
         }
         let max = config.gap.max_wheel_speed;
         let wheel_speeds = [
-            geometry.radius_left * rates.left,
-            geometry.radius_right * rates.right,
+            rim(geometry.radius_left, rates.left()),
+            rim(geometry.radius_right, rates.right()),
         ];
         if wheel_speeds.iter().any(|v| libm::fabsf(*v) > max) {
             return Err(Reject::OutOfRange);
@@ -175,12 +175,13 @@ impl GapOdometry {
             self.broken = true;
             return Err(Reject::Gap);
         }
-        let (mut left, mut right, mut geometry) = (rates.left, rates.right, *geometry);
+        let (mut left, mut right, mut geometry) = (rates.left(), rates.right(), *geometry);
         let (speed, _) = geometry.motion(left, right);
         if let Some(w) = witness.filter(|w| w.speed.is_finite() && w.std.is_finite()) {
-            let var = 0.5 * geometry.forward_std * geometry.forward_std + w.std * w.std;
-            let d = speed - w.speed;
-            if libm::fabsf(speed) > SLIP_MIN_SPEED && d * d > SLIP_GATE * var {
+            let wheel_var = 0.5 * geometry.forward_std * geometry.forward_std;
+            if libm::fabsf(speed) > SLIP_MIN_SPEED
+                && disagreement(speed, wheel_var, w.speed, w.std * w.std) > SLIP_GATE
+            {
                 let scale = w.speed / speed;
                 left *= scale;
                 right *= scale;
@@ -194,7 +195,7 @@ impl GapOdometry {
         {
             return Err(Reject::NonFinite);
         }
-        self.last = rates.t;
+        self.last = rates.t();
         self.last_rates = (left, right);
         self.samples = self.samples.saturating_add(1);
         Ok(())
@@ -252,11 +253,7 @@ mod tests {
     }
 
     fn rates(ms: u64, l: f32, r: f32) -> WheelRates {
-        WheelRates {
-            t: Timestamp(ms * MS),
-            left: l,
-            right: r,
-        }
+        WheelRates::new(Timestamp(ms * MS), l, r).unwrap()
     }
 
     #[test]
@@ -305,15 +302,22 @@ mod tests {
             o.offer(imu, &rates(40, 8.0, 8.0), &g, None, &c),
             Some(Ok(()))
         );
-        let nan = rates(60, f32::NAN, 8.0);
+        // Rates the integration cannot hold (finite, but the step overflows).
+        let wide = WheelGeometry {
+            radius_left: 1.0e30,
+            radius_right: 1.0e30,
+            ..g
+        };
+        let mut huge_max = c;
+        huge_max.gap.max_wheel_speed = f32::INFINITY;
         assert_eq!(
-            o.offer(imu, &nan, &g, None, &c),
+            o.offer(imu, &rates(60, 3.0e10, -3.0e10), &wide, None, &huge_max),
             Some(Err(Reject::NonFinite))
         );
-        let inf = rates(60, 8.0, f32::INFINITY);
+        // Non-finite rates cannot be built at all.
         assert_eq!(
-            o.offer(imu, &inf, &g, None, &c),
-            Some(Err(Reject::NonFinite))
+            WheelRates::new(Timestamp(60 * MS), f32::NAN, 8.0),
+            Err(Reject::NonFinite)
         );
         let huge = rates(60, 1.0e6, 8.0);
         assert_eq!(
@@ -343,7 +347,7 @@ mod tests {
         assert_eq!(o.offer(imu, &ok, &g, None, &c), Some(Ok(())));
         let counts = o.counts();
         assert_eq!(fused(counts), 2);
-        assert_eq!(counts.rejected(Reject::NonFinite), 2);
+        assert_eq!(counts.rejected(Reject::NonFinite), 1);
         assert_eq!(counts.rejected(Reject::OutOfRange), 1);
         assert_eq!(counts.rejected(Reject::Duplicate), 1);
         assert_eq!(counts.rejected(Reject::OutOfOrder), 1);

@@ -20,6 +20,7 @@
 //! Every sample, fused, gated or refused, leaves its [`WheelStatus`]
 //! ([`WheelFusion::status`]): forward and differential rows.
 
+use vslam_core::kinematics::{differential, mid_axle, rim};
 use vslam_core::sensors::WheelRates;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -131,8 +132,8 @@ impl WheelFusion {
         let checked = self.fuse_inner(x, p, gyro, rates, grip, now);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
-            Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t, inn.forward),
-            Ok(_) => self.watch.fused(recovery, rates.t),
+            Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t(), inn.forward),
+            Ok(_) => self.watch.fused(recovery, rates.t()),
             Err(_) => {}
         }
         match outcome {
@@ -148,7 +149,7 @@ impl WheelFusion {
                 } else {
                     AidOutcome::Fused
                 };
-                AidStatus::new(rates.t, outcome, previous)
+                AidStatus::new(rates.t(), outcome, previous)
                     .with_observation(rows.observation, rows.observation_var)
                     .with_innovation(
                         [inn.forward, rows.update.differential],
@@ -156,7 +157,7 @@ impl WheelFusion {
                     )
                     .with_test(rows.nis(), Some(grip.forward_gate()))
             }
-            Err(r) => AidStatus::new(rates.t, AidOutcome::of::<()>(&Err(r)), previous),
+            Err(r) => AidStatus::new(rates.t(), AidOutcome::of::<()>(&Err(r)), previous),
         };
         self.status = Some(status.with_gated_run(self.watch.run().len()));
         outcome
@@ -171,13 +172,10 @@ impl WheelFusion {
         grip: &GripParams,
         now: Timestamp,
     ) -> Result<(WheelInnovation, GatedRows), Reject> {
-        if !(rates.left.is_finite() && rates.right.is_finite()) {
-            return Err(Reject::NonFinite);
-        }
-        match rates.t.nanos_since(now) {
+        match rates.t().nanos_since(now) {
             Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
             None if now
-                .nanos_since(rates.t)
+                .nanos_since(rates.t())
                 .is_some_and(|d| d > self.max_age_ns) =>
             {
                 return Err(Reject::OutOfOrder);
@@ -186,12 +184,18 @@ impl WheelFusion {
         }
         // Gaps are not fatal for rates (they are an average over the
         // interval), but the clock re-anchors and the sample is counted.
-        self.clock.accept(rates.t)?;
-        self.stopped =
-            libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
+        self.clock.accept(rates.t())?;
+        self.stopped = libm::fabsf(rates.left()) < self.stop_rate
+            && libm::fabsf(rates.right()) < self.stop_rate;
         let rows = wheel_rows(x, gyro, rates, grip);
-        let speed = 0.5 * (x.radius_left * rates.left + x.radius_right * rates.right);
-        let differential = x.radius_right * rates.right - x.radius_left * rates.left;
+        let speed = mid_axle(
+            rim(x.radius_left, rates.left()),
+            rim(x.radius_right, rates.right()),
+        );
+        let differential = differential(
+            rim(x.radius_left, rates.left()),
+            rim(x.radius_right, rates.right()),
+        );
         let [noise_fwd, noise_diff, ..] = rows.noise;
         let u = update(x, p, &rows, grip.forward_gate())?;
         let inn = WheelInnovation {

@@ -26,6 +26,7 @@
 //! grip's lateral noise.
 
 use nalgebra::{Matrix3, SMatrix, SVector};
+use vslam_core::kinematics::{add_lever_arm, differential, mid_axle, rim};
 use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
@@ -152,7 +153,7 @@ impl WheelRows {
 
     /// `P H^T` for a symmetric `P` from the nonzero columns of `H` only,
     /// one row `p` of `P` at a time (its 20 entries at [`SUPPORT`], each
-    /// read once): the mid-point rows from their factors ([`MidFactors`]:
+    /// read once): the mid-point rows from their factors (`MidFactors`:
     /// two 3x3 products and four cross products), the differential row
     /// from its coefficients on gyro bias, contact-point difference,
     /// `R_rb` and radii. About 75 operations and 20 loads per row of `P`,
@@ -360,16 +361,17 @@ pub fn wheel_rows(
     let v_b = r_wb.transpose() * x.v_wb;
     let p_mid = x.p_b_robot();
     let lever = x.p_br - x.p_bl;
-    let u_mid = v_b + gyro.cross(&p_mid);
+    let u_mid = add_lever_arm(&v_b, gyro, &p_mid);
     let u_diff = gyro.cross(&lever);
     let w_mid = r_rb * u_mid;
     let w_diff = r_rb * u_diff;
-    let (wl, wr) = (rates.left, rates.right);
+    let (wl, wr) = (rates.left(), rates.right());
     let (rl, rr) = (x.radius_left, x.radius_right);
 
+    let (vl, vr) = (rim(rl, wl), rim(rr, wr));
     let h_val = SVector::<f32, 4>::new(
-        w_mid.x - 0.5 * (rl * wl + rr * wr),
-        w_diff.x - (rr * wr - rl * wl),
+        w_mid.x - mid_axle(vl, vr),
+        w_diff.x - differential(vl, vr),
         w_mid.y,
         w_mid.z,
     );

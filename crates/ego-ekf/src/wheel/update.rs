@@ -5,7 +5,7 @@
 //! Written after PX4 EKF2's generated sparse fusion code: `P H^T` from the
 //! nonzero columns of `H` only ([`WheelRows::p_ht`], no search for the
 //! support at run time), `S = H P H^T + R` from it, and then
-//! [`fuse_prepared`]: the rows' noises are uncorrelated (diagonal `R`), so
+//! `fuse_prepared_in_place`: the rows' noises are uncorrelated (diagonal `R`), so
 //! the update is the sequence of scalar updates `P <- P - k k^T s` row by
 //! row (Solà 2017, sec. 6.1-6.3; the Cholesky factor of `S` carries the
 //! sequence), with all of their rank-one downdates applied in one pass over

@@ -1,21 +1,15 @@
 //! The flow transaction `To`: downward optical-flow counts to metres.
 //!
-//! Per report (PixArt PMW3901MB / PAA5100JE; PX4 `OpticalFlow` fusion):
-//! counts to angle by `counts_per_radian`, angle to metres by the sensor's
-//! height above the floor, the sensor-plane displacement rotated into the
-//! body frame by the mounting `R_BS`, and the lever arm removed: a sensor at
-//! `r` from the body origin moves by `v + w x r`, so over a report the body
-//! origin moved `d_sensor - dyaw * (z x r)`.
-//!
-//! Sign convention: the counts are taken as the sensor's own motion over the
-//! floor along its `+x`/`+y` axes; a chip that reports the floor's apparent
-//! motion instead is described by a mounting rotated by 180 degrees about z.
+//! Per report, [`FlowOptics`] turns the counts into the sensor-plane
+//! displacement and that into the body origin's ([`FlowOptics::to_body`]):
+//! a sensor at `r` from the body origin moves by `v + w x r`, so over a
+//! report the body origin moved `d_sensor - dyaw * (z x r)`.
 //!
 //! Not modelled: the angular flow of body pitch and roll rates (PX4 subtracts
 //! the gyro's x/y rates); a wheeled robot on a floor has next to none, and
 //! over a frame interval they integrate to nearly zero.
 //!
-//! Reports land in a [`FlowWindow`] as [`FlowStep`]s (body-origin
+//! Reports land in a [`FlowStepWindow`] as [`FlowStep`]s (body-origin
 //! displacement, heading change, confidence over the report's own interval);
 //! raw-frame flow ([`super::raw_flow`]) produces the same steps.
 
@@ -25,6 +19,7 @@ use super::confidence::{FlowConfidenceParams, flow_sample_confidence};
 use super::interval::{Coverage, overlap_fraction};
 use super::transactions::Transaction;
 use crate::geometry::{Extrinsics, Vec2, Vec3};
+use crate::kinematics::{add_lever_arm, sensor_plane_to_body};
 use crate::reject::{Reject, SampleCounts};
 use crate::sensors::{FlowOptics, FlowSample};
 use crate::time::{SampleClock, Timestamp};
@@ -45,19 +40,15 @@ pub struct FlowStep {
 }
 
 /// A sensor-plane displacement (metres, sensor x/y) to the body origin's
-/// displacement: rotated by the mounting, lever arm `dyaw * (z x t_BS)` removed.
+/// (x, y): rotated by the mounting, lever arm `dyaw * (z x t_BS)` removed
+/// ([`sensor_plane_to_body`]).
 pub fn sensor_to_body(d_sensor: Vec2, mount: &Extrinsics, dyaw: f32) -> Vec2 {
-    let d_b = mount.vector_to_body(&Vec3::new(d_sensor.x, d_sensor.y, 0.0));
-    let r = mount.t_bs();
-    Vec2::new(d_b.x + dyaw * r.y, d_b.y - dyaw * r.x)
+    sensor_plane_to_body(&d_sensor, mount, &yaw_vector(dyaw)).xy()
 }
 
-/// One report's counts to the sensor-plane displacement, metres.
-pub fn counts_to_metres(s: &FlowSample, optics: &FlowOptics) -> Vec2 {
-    Vec2::new(
-        optics.counts_to_metres(f32::from(s.dx)),
-        optics.counts_to_metres(f32::from(s.dy)),
-    )
+/// A heading change about the body's z axis as a rotation vector.
+fn yaw_vector(dyaw: f32) -> Vec3 {
+    Vec3::new(0.0, 0.0, dyaw)
 }
 
 /// Flow settings for the transaction.
@@ -101,7 +92,7 @@ pub struct FlowSummary {
 
 /// A window of recent flow steps, queried per camera interval.
 #[derive(Clone, Debug)]
-pub struct FlowWindow<const N: usize> {
+pub struct FlowStepWindow<const N: usize> {
     params: FlowParams,
     steps: Deque<FlowStep, N>,
     clock: SampleClock,
@@ -109,10 +100,10 @@ pub struct FlowWindow<const N: usize> {
     counts: SampleCounts,
 }
 
-impl<const N: usize> FlowWindow<N> {
+impl<const N: usize> FlowStepWindow<N> {
     /// An empty window.
     pub fn new(params: FlowParams) -> Self {
-        FlowWindow {
+        FlowStepWindow {
             params,
             steps: Deque::new(),
             clock: SampleClock::new(params.max_step_ns),
@@ -169,11 +160,11 @@ impl<const N: usize> FlowWindow<N> {
         let t0 = self.clock.last();
         self.clock.accept(s.t)?.ok_or(Reject::NotReady)?;
         let t0 = t0.ok_or(Reject::NotReady)?;
-        let d = counts_to_metres(s, optics);
+        let d = optics.floor_displacement(s);
         let step = FlowStep {
             t0,
             t1: s.t,
-            d_body: sensor_to_body(d, optics.mount(), dyaw),
+            d_body: optics.to_body(&d, &yaw_vector(dyaw)).xy(),
             dyaw,
             confidence: flow_sample_confidence(s, &self.params.quality),
         };
@@ -233,10 +224,8 @@ impl<const N: usize> FlowWindow<N> {
             if st.confidence <= 0.0 {
                 blank = blank.saturating_add(1);
             }
-            let d = Vec2::new(
-                st.d_body.x - st.dyaw * point_b.y,
-                st.d_body.y + st.dyaw * point_b.x,
-            );
+            let origin = Vec3::new(st.d_body.x, st.d_body.y, 0.0);
+            let d = add_lever_arm(&origin, &yaw_vector(st.dyaw), point_b).xy();
             path += f * d.norm();
             let w = f * st.t1.seconds_since(st.t0).unwrap_or(0.0);
             conf += w * st.confidence.clamp(0.0, 1.0);
@@ -306,7 +295,7 @@ mod tests {
         )
         .unwrap();
         let o = optics(mount);
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         assert_eq!(
             w.push_sample(&sample(0, 0, 0), &o, 0.0),
             Err(Reject::NotReady)
@@ -325,7 +314,7 @@ mod tests {
         let d = sensor_to_body(Vec2::new(0.0, 0.005), o.mount(), 0.05);
         assert!(d.norm() < 1e-6);
         // The same step, summed for a point 0.1 m ahead, is the sensor's motion again.
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         w.push_sample(&sample(0, 0, 0), &o, 0.0).unwrap_err();
         w.push_sample(&sample(10, 0, 125), &o, 0.05).unwrap();
         let s = w.summarize(Timestamp(0), Timestamp(10), &Vec3::new(0.1, 0.0, 0.0));
@@ -337,7 +326,7 @@ mod tests {
     #[test]
     fn low_quality_lowers_confidence_not_the_sample() {
         let o = optics(Extrinsics::identity());
-        let mut w: FlowWindow<8> = FlowWindow::new(FlowParams::default());
+        let mut w: FlowStepWindow<8> = FlowStepWindow::new(FlowParams::default());
         let _ = w.push_sample(&sample(0, 0, 0), &o, 0.0);
         w.push_sample(&sample(100, 100, 0), &o, 0.0).unwrap();
         let dark = FlowSample {

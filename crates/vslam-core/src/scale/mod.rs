@@ -31,5 +31,5 @@ pub use pipeline::{
 };
 pub use robust::{RobustEstimate, RobustScale};
 pub use select::{NoScale, ScaleEstimate, ScaleSource, SelectionMethod};
-pub use slip::{SlipCause, SlipReport};
+pub use slip::{SlipCause, SlipReport, disagreement};
 pub use transactions::Transaction;

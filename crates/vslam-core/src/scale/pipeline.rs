@@ -25,12 +25,12 @@ pub use super::config::{
     SCALE_WINDOW, WHEEL_WINDOW,
 };
 pub use super::decision::FrameDecision;
-use super::flow::{FlowStep, FlowWindow};
+use super::flow::{FlowStep, FlowStepWindow};
 use super::imu::ImuWindow;
 use super::raw_flow::{FeatureMotion, RawFlowError, RawFlowOptics, raw_flow_step};
 use super::robust::{RobustEstimate, RobustScale};
 use super::select::{NoScale, SelectionInput, SelectionMethod, select};
-use super::slip::{SlipEvidence, SlipReport, assess};
+use super::slip::{SlipEvidence, SlipReport, assess, disagreement};
 use super::transactions::{Transaction, WheelWindow};
 use crate::adverse::{AdverseKind, AdverseMemory, SensorKind};
 use crate::geometry::Vec2;
@@ -74,7 +74,7 @@ use crate::time::Timestamp;
 pub struct ScalePipeline<const N: usize = 32> {
     config: PipelineConfig,
     wheel: WheelWindow<WHEEL_WINDOW>,
-    flow: FlowWindow<FLOW_WINDOW>,
+    flow: FlowStepWindow<FLOW_WINDOW>,
     imu: ImuWindow<IMU_WINDOW>,
     robust: RobustScale<SCALE_WINDOW>,
     memory: PipelineMemory,
@@ -89,7 +89,7 @@ impl<const N: usize> ScalePipeline<N> {
         config.validate()?;
         Ok(ScalePipeline {
             wheel: WheelWindow::new(config.wheel),
-            flow: FlowWindow::new(config.flow),
+            flow: FlowStepWindow::new(config.flow),
             imu: ImuWindow::new(config.imu, config.imu_max_step_ns),
             robust: RobustScale::new(config.robust),
             memory: AdverseMemory::new(config.adverse).map_err(PipelineConfigError::Adverse)?,
@@ -271,11 +271,10 @@ impl<const N: usize> ScalePipeline<N> {
         let erroneous =
             !ws.path.is_finite() || ws.coverage < cfg.min_wheel_coverage || ws.discontinuities > 0;
         let vs_flow = flow.confidence >= cfg.slip.min_flow_confidence && {
-            let sd = libm::sqrtf(
-                Transaction::variance_for(ws.path, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0)
-                    + flow.variance,
-            );
-            libm::fabsf(ws.path - flow.metres) > cfg.wheel_outlier_sigmas * sd
+            let wheel_var =
+                Transaction::variance_for(ws.path, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0);
+            let k = cfg.wheel_outlier_sigmas;
+            disagreement(ws.path, wheel_var, flow.metres, flow.variance) > k * k
         };
         let vs_running = baseline >= cfg.select.min_baseline
             && before.is_some_and(|e| e.z(ws.path / baseline) > cfg.robust.gate_sigmas);

@@ -13,6 +13,23 @@
 //! The amount is on the scale of indicator 1 (a fraction of the wheel path);
 //! each other indicator is mapped so that its tolerance equals the threshold,
 //! and the amount is the largest of them.
+//!
+//! Per sample, two sensors' measurements of one speed (or path) are compared
+//! by [`disagreement`], their normalised squared difference (a 1-DOF
+//! chi-square value): the pipeline's wheel-outlier test, the EKF's slip check
+//! of the wheels during an IMU gap and its re-examination of a gated run
+//! (`ego_ekf::gap::odometry`, `ego_ekf::recovery`) all call it.
+
+/// How far two measurements `a`, `b` of one quantity with variances `var_a`,
+/// `var_b` disagree: `(a - b)^2 / (var_a + var_b)`, a 1-DOF chi-square value
+/// (compare it with a gate such as 9 for three standard deviations). The
+/// summed variance is kept at or above `f32::MIN_POSITIVE`; non-finite
+/// inputs give a non-finite or NaN value, which fails every `<=` test.
+#[inline]
+pub fn disagreement(a: f32, var_a: f32, b: f32, var_b: f32) -> f32 {
+    let d = a - b;
+    d * d / (var_a + var_b).max(f32::MIN_POSITIVE)
+}
 
 /// Everything the slip check looks at over one interval.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -294,6 +311,17 @@ mod tests {
             &p,
         );
         assert!(r.exceeded);
+    }
+
+    #[test]
+    fn disagreement_is_the_normalised_squared_difference() {
+        assert!((disagreement(0.5, 0.01, 0.3, 0.03) - 1.0).abs() < 1e-5);
+        assert_eq!(
+            disagreement(0.3, 0.01, 0.5, 0.03),
+            disagreement(0.5, 0.01, 0.3, 0.03)
+        );
+        assert!(disagreement(1.0, 0.0, 0.0, 0.0) > 1e30);
+        assert!(disagreement(f32::NAN, 1.0, 0.0, 1.0).is_nan());
     }
 
     #[test]

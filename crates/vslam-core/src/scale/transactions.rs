@@ -16,6 +16,7 @@ use heapless::Deque;
 
 use super::interval::{Coverage, overlap_fraction};
 use crate::geometry::Vec3;
+use crate::kinematics::planar_point_step;
 use crate::reject::{Reject, SampleCounts};
 use crate::sensors::OdometryDelta;
 use crate::time::Timestamp;
@@ -253,11 +254,10 @@ impl<const N: usize> WheelWindow<N> {
 }
 
 /// The displacement of the body point `p` over one odometry delta, in the
-/// body frame at the delta's start: `t + (Rz(dyaw) - I) p`.
+/// body frame at the delta's start: `t + (Rz(dyaw) - I) p`
+/// ([`planar_point_step`]).
 pub fn point_step(d: &OdometryDelta, p: &Vec3) -> Vec3 {
-    let (s, c) = (libm::sinf(d.dyaw), libm::cosf(d.dyaw));
-    let rotated = Vec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z);
-    d.translation + rotated - p
+    planar_point_step(&d.translation, d.dyaw, p)
 }
 
 #[cfg(test)]
