@@ -165,8 +165,8 @@ impl WheelRows {
     }
 
     /// [`WheelRows::p_ht`] into `out` (every entry written). The in-place
-    /// form saves the copy of the returned `35 x 4` block (about 490
-    /// instructions on Cortex-M, where the returned matrix was built in a
+    /// form saves the copy of the returned `DIM x 4` block (about 490
+    /// instructions on Cortex-M, where a returned matrix is built in a
     /// local and copied out).
     ///
     /// Not inlined: inlined into the update, the host build spends about
@@ -346,7 +346,7 @@ pub fn wheel_measurement(
 ///
 /// `gyro` is the latest bias-corrected angular rate of the body.
 ///
-/// Inlined: called out of line, the rows (about 480 bytes) were built in
+/// Inlined: called out of line, the rows (about 480 bytes) are built in
 /// the callee and copied to the caller (about 480 instructions on
 /// Cortex-M; `firmware/run-qemu`).
 #[inline(always)]
