@@ -520,7 +520,7 @@ impl<'b> FrontEnd<'b> {
 }
 
 /// The camera path's tracking stage: tracks `points` from `prev` into
-/// `next`, [`TRACK_BATCH`] at a time (points are tracked independently; a few
+/// `next`, `TRACK_BATCH` (16) at a time (points are tracked independently; a few
 /// at a time keeps the results off the stack: all 200 at once took about
 /// 6 KB), and appends each tracked point's pair to `(from, to)`: `from[i]`
 /// in `prev` went to `to[i]` in `next` (pairs past the capacity `N` are

@@ -5,7 +5,7 @@
 //! cable, a toy, a door stop) sees a short, sharp vertical jolt; so does a
 //! robot crossing a threshold strip, and carpet shakes the body all the time.
 //! The detector therefore judges every jolt against what the *current floor*
-//! explains ([`GripParams::jolt_threshold`]):
+//! explains ([`GripParams::jolt_threshold`](crate::grip::GripParams::jolt_threshold)):
 //!
 //! - a short-window peak detector: a jolt starts when the deviation exceeds
 //!   the onset level, its peak is taken over `window` (40-80 ms: a wheel

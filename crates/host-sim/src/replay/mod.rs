@@ -1,9 +1,9 @@
 //! Replay of a recorded ASL dataset through `traction::Estimator`, and the
 //! files it writes: `ekf.tum`, `vslam.tum`, `wheel_only.tum`, `report.json`,
 //! `trajectory.svg`. All estimation happens in the no_std crates; this
-//! module only reads, feeds, collects and writes: [`config`] builds the
-//! configuration from the dataset's metadata, [`run`] is the loop through
-//! the estimator, [`report`] writes the report and the summary.
+//! module only reads, feeds, collects and writes: `config.rs` builds the
+//! configuration from the dataset's metadata, `run.rs` is the loop through
+//! the estimator, `report.rs` writes the report and the summary.
 
 mod config;
 mod report;
