@@ -15,17 +15,19 @@
 //! f64), `config.txt` (window, levels, iterations, epsilon) and `ours.txt`
 //! (our tracked position and status per corner).
 
-#[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
-mod lk_support;
-
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use lk_support::{Homography, load};
+use test_support::images::{Gray, Homography, load};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::lk::{LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
+
+/// `g` as the library's image view.
+fn view(g: &Gray) -> vslam_core::image::ImageView<'_> {
+    vslam_core::image::ImageView::packed(&g.data, g.width, g.height).unwrap()
+}
 
 const W: usize = 320;
 const H: usize = 240;
@@ -35,7 +37,7 @@ fn bench(c: &mut Criterion) {
     let first = load("camera.png").crop_centre(W, H);
     let h = Homography::similarity_about(160.0, 120.0, 1.5, 1.01, 2.7, -1.9, 2e-5, -1.5e-5);
     let second = first.warp(&h);
-    let (va, vb) = (first.view(), second.view());
+    let (va, vb) = (view(&first), view(&second));
 
     let corner_config = CornerConfig {
         min_distance: 8.0,
@@ -173,7 +175,7 @@ mod peer {
     use std::io::Write;
     use std::path::Path;
 
-    use super::lk_support::{Gray, Homography};
+    use test_support::images::{Gray, Homography};
     use vslam_core::geometry::Vec2;
     use vslam_core::lk::{LkConfig, TrackResult};
 

@@ -8,13 +8,15 @@
 //! and divide the difference by 10 (loading and cropping cancel out).
 //! Usage: `corners_profile [ROUNDS]` (default 20).
 
-#[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
-mod lk_support;
-
 use std::hint::black_box;
 
-use lk_support::{load, median};
+use test_support::images::{Gray, load, median};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
+
+/// `g` as the library's image view.
+fn view(g: &Gray) -> vslam_core::image::ImageView<'_> {
+    vslam_core::image::ImageView::packed(&g.data, g.width, g.height).unwrap()
+}
 
 fn main() {
     let rounds: usize = std::env::args()
@@ -35,13 +37,13 @@ fn main() {
         for (_, image) in &images {
             let start = std::time::Instant::now();
             black_box(
-                detect_corners(black_box(&image.view()), &config, &mut scratch, &mut out).unwrap(),
+                detect_corners(black_box(&view(image)), &config, &mut scratch, &mut out).unwrap(),
             );
             times.push(start.elapsed().as_secs_f64() * 1e6);
         }
     }
     for (name, image) in &images {
-        let n = detect_corners(&image.view(), &config, &mut scratch, &mut out).unwrap();
+        let n = detect_corners(&view(image), &config, &mut scratch, &mut out).unwrap();
         let sum: f64 = out[..n]
             .iter()
             .map(|c| (c.x * 7 + c.y * 13) as f64 + f64::from(c.response))

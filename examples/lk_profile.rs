@@ -8,16 +8,18 @@
 //! of 1 tracking call, `LkConfig::default()`; a third argument sets
 //! `LkConfig::coarse_epsilon`).
 
-#[path = "../crates/vslam-core/tests/lk_support/mod.rs"]
-mod lk_support;
-
 use std::hint::black_box;
 
-use lk_support::{Homography, load, median};
+use test_support::images::{Gray, Homography, load, median};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::lk::{LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
+
+/// `g` as the library's image view.
+fn view(g: &Gray) -> vslam_core::image::ImageView<'_> {
+    vslam_core::image::ImageView::packed(&g.data, g.width, g.height).unwrap()
+}
 
 const W: usize = 320;
 const H: usize = 240;
@@ -35,7 +37,7 @@ fn main() {
     let first = load("camera.png").crop_centre(W, H);
     let h = Homography::similarity_about(160.0, 120.0, 1.5, 1.01, 2.7, -1.9, 2e-5, -1.5e-5);
     let second = first.warp(&h);
-    let (va, vb) = (first.view(), second.view());
+    let (va, vb) = (view(&first), view(&second));
     let corner_config = CornerConfig {
         min_distance: 8.0,
         border: 16,

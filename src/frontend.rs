@@ -36,11 +36,14 @@
 
 use heapless::Vec as HVec;
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
-use vslam_core::decompose::{NormalPrior, PinholeIntrinsics, PlaneMotion, SelectParams, decompose};
+use vslam_core::decompose::{
+    DecomposeError, HomographyDecomposition, NormalPrior, PinholeIntrinsics, PlaneMotion,
+    SelectParams, decompose,
+};
 use vslam_core::geometry::{Extrinsics, Vec2, Vec3};
-use vslam_core::homography::{HomographyRansac, RansacParams};
+use vslam_core::homography::{HomographyError, HomographyRansac, RansacParams, RansacReport};
 use vslam_core::image::ImageView;
-use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::lk::{LkConfig, LkError, TrackCounts, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, storage_bytes};
 use vslam_core::scale::CameraMotion;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
@@ -396,34 +399,30 @@ impl<'b> FrontEnd<'b> {
             let next = Pyramid::build_in(image, levels, self.buffers.current_pyramid)
                 .map_err(|_| Reject::OutOfRange)?;
             self.current_pyramid_built = true;
-            // Points are tracked independently: a few at a time keeps the
-            // results off the stack (all 200 at once took about 6 KB).
-            let mut results = [TrackResult::EMPTY; TRACK_BATCH];
-            for batch in self.points.chunks(TRACK_BATCH) {
-                let results = results.get_mut(..batch.len()).ok_or(Reject::Degenerate)?;
-                self.tracker
-                    .track(&prev, &next, batch, results)
-                    .map_err(|_| Reject::Degenerate)?;
-                for (p, r) in batch.iter().zip(results.iter()) {
-                    if r.is_tracked() {
-                        // Capacities equal the number of points: these cannot fail.
-                        let _ = p1.push(*p);
-                        let _ = p2.push(r.position);
-                    }
-                }
-            }
+            track_pairs(
+                &self.tracker,
+                &prev,
+                &next,
+                &self.points,
+                (&mut p1, &mut p2),
+                |_| {},
+            )
+            .map_err(|_| Reject::Degenerate)?;
         }
         if p1.len() < self.config.min_tracks {
             return Err(Reject::LowQuality);
         }
         let mut mask = [false; MAX_FEATURES];
         let mask = mask.get_mut(..p1.len()).ok_or(Reject::Degenerate)?;
-        let report = self
-            .ransac
-            .estimate(&p1, &p2, mask)
-            .map_err(|_| Reject::Degenerate)?;
-        let dec = decompose(&report.homography, &self.config.intrinsics)
-            .map_err(|_| Reject::Degenerate)?;
+        let (report, dec) = fit_pairs(
+            &mut self.ransac,
+            &p1,
+            &p2,
+            mask,
+            Some(&self.config.intrinsics),
+        )
+        .map_err(|_| Reject::Degenerate)?;
+        let dec = dec.ok_or(Reject::Degenerate)?;
         let stats = FrameStats {
             tracked: p1.len() as u16,
             inliers: report.inlier_count as u16,
@@ -519,4 +518,81 @@ impl<'b> FrontEnd<'b> {
             let _ = self.points.push(c.position());
         }
     }
+}
+
+/// The camera path's tracking stage: tracks `points` from `prev` into
+/// `next`, `TRACK_BATCH` (16) at a time (points are tracked independently; a few
+/// at a time keeps the results off the stack: all 200 at once took about
+/// 6 KB), and appends each tracked point's pair to `(from, to)`: `from[i]`
+/// in `prev` went to `to[i]` in `next` (pairs past the capacity `N` are
+/// dropped). `each` sees every point's result in order, tracked or lost.
+/// Returns the counts by status.
+pub fn track_pairs<const N: usize>(
+    tracker: &Tracker,
+    prev: &Pyramid<'_>,
+    next: &Pyramid<'_>,
+    points: &[Vec2],
+    (from, to): (&mut HVec<Vec2, N>, &mut HVec<Vec2, N>),
+    mut each: impl FnMut(&TrackResult),
+) -> Result<TrackCounts, LkError> {
+    let mut counts = TrackCounts::default();
+    let mut results = [TrackResult::EMPTY; TRACK_BATCH];
+    for batch in points.chunks(TRACK_BATCH) {
+        let results = results
+            .get_mut(..batch.len())
+            .ok_or(LkError::OutputTooSmall {
+                points: batch.len(),
+                results: TRACK_BATCH,
+            })?;
+        tracker.track(prev, next, batch, results)?;
+        for (p, r) in batch.iter().zip(results.iter()) {
+            counts.record(r.status);
+            each(r);
+            if r.is_tracked() && !from.is_full() && !to.is_full() {
+                let _ = from.push(*p);
+                let _ = to.push(r.position);
+            }
+        }
+    }
+    Ok(counts)
+}
+
+/// Why [`fit_pairs`] found nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FitError {
+    /// No homography: too few or degenerate pairs, no consensus.
+    Homography(HomographyError),
+    /// The homography has no decomposition.
+    Decomposition(DecomposeError),
+}
+
+impl core::fmt::Display for FitError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FitError::Homography(e) => write!(f, "no homography: {e}"),
+            FitError::Decomposition(e) => write!(f, "no decomposition: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for FitError {}
+
+/// The camera path's fitting stage: the RANSAC homography `to ~ H from`
+/// (inliers marked in `mask`) and, given the `intrinsics`, its
+/// decomposition into `{R, t/d, n}` candidates.
+pub fn fit_pairs<const N: usize>(
+    ransac: &mut HomographyRansac<N>,
+    from: &[Vec2],
+    to: &[Vec2],
+    mask: &mut [bool],
+    intrinsics: Option<&PinholeIntrinsics>,
+) -> Result<(RansacReport, Option<HomographyDecomposition>), FitError> {
+    let report = ransac
+        .estimate(from, to, mask)
+        .map_err(FitError::Homography)?;
+    let decomposition = match intrinsics {
+        Some(k) => Some(decompose(&report.homography, k).map_err(FitError::Decomposition)?),
+        None => None,
+    };
+    Ok((report, decomposition))
 }

@@ -1,5 +1,5 @@
 //! The firmware's estimation loop over the embedded sample data, shared
-//! word for word with the host check (`tests/firmware_match.rs` includes this
+//! word for word with the host check (`crates/host-sim/tests/firmware_match.rs` includes this
 //! file by `#[path]`), so the firmware and the host run the same code on the
 //! same bytes.
 //!

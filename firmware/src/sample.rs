@@ -1,5 +1,5 @@
 //! The embedded sample data: one little-endian byte stream that the host
-//! generator (`cargo run --release --example firmware_data`) writes to
+//! generator (`cargo run --release -p host-sim --example firmware_data`) writes to
 //! `firmware/data/sample.bin`, and that the firmware and the host check both
 //! read with [`Records`].
 //!

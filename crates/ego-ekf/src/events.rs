@@ -5,7 +5,7 @@
 //! cable, a toy, a door stop) sees a short, sharp vertical jolt; so does a
 //! robot crossing a threshold strip, and carpet shakes the body all the time.
 //! The detector therefore judges every jolt against what the *current floor*
-//! explains ([`GripParams::jolt_threshold`]):
+//! explains ([`GripParams::jolt_threshold`](crate::grip::GripParams::jolt_threshold)):
 //!
 //! - a short-window peak detector: a jolt starts when the deviation exceeds
 //!   the onset level, its peak is taken over `window` (40-80 ms: a wheel
@@ -27,7 +27,9 @@ use core::fmt;
 use heapless::Deque;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-use crate::grip::GripParams;
+/// The surface model's answer per IMU step, kept in [`crate::surface`] (the
+/// model makes it, this module reads it) and named here too.
+pub use crate::surface::JoltContext;
 use crate::surface::SurfaceKind;
 
 /// What a jolt was judged to be.
@@ -89,45 +91,6 @@ pub struct JoltEvent {
     pub surface: Option<SurfaceKind>,
     /// The judgement.
     pub kind: JoltKind,
-}
-
-/// What the floor explains, at one instant (from the surface model).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct JoltContext {
-    /// The jolt the current floor explains, m/s^2.
-    pub jolt_threshold: f32,
-    /// The jolt a threshold strip explains, m/s^2.
-    pub strip_threshold: f32,
-    /// The dominant floor, if known.
-    pub surface: Option<SurfaceKind>,
-    /// The last floor-boundary crossing, if any.
-    pub last_crossing: Option<Timestamp>,
-    /// The next anticipated floor-boundary crossing, if any.
-    pub next_crossing: Option<Timestamp>,
-    /// Forward speed, m/s (for the distance to a crossing).
-    pub forward_speed: f32,
-}
-
-impl JoltContext {
-    /// A context without surface awareness: one fixed threshold, no boundaries.
-    pub fn fixed(jolt_threshold: f32) -> Self {
-        JoltContext {
-            jolt_threshold,
-            strip_threshold: jolt_threshold,
-            surface: None,
-            last_crossing: None,
-            next_crossing: None,
-            forward_speed: 0.0,
-        }
-    }
-
-    /// A context from grip parameters alone (no boundary information).
-    pub fn from_params(params: &GripParams, surface: Option<SurfaceKind>) -> Self {
-        JoltContext {
-            surface,
-            ..JoltContext::fixed(params.jolt_threshold())
-        }
-    }
 }
 
 /// Why a jolt configuration was refused.

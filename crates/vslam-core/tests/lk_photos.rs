@@ -2,13 +2,16 @@
 //! tracked corners must land where the homography sends them.
 //! Run with `--nocapture` to see the measured numbers.
 
-mod lk_support;
-
-use lk_support::{Homography, load, median};
+use test_support::images::{Gray, Homography, load, median};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::lk::{LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
+
+/// `g` as the library's image view.
+fn view(g: &Gray) -> vslam_core::image::ImageView<'_> {
+    vslam_core::image::ImageView::packed(&g.data, g.width, g.height).unwrap()
+}
 
 const W: usize = 320;
 const H: usize = 240;
@@ -26,7 +29,7 @@ fn track_photo(
 
     let mut st_a = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
     let mut st_b = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-    let (va, vb) = (first.view(), second.view());
+    let (va, vb) = (view(&first), view(&second));
     let pa = Pyramid::build(&va, 3, &mut st_a).unwrap();
     let pb = Pyramid::build(&vb, 3, &mut st_b).unwrap();
 

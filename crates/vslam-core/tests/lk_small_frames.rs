@@ -7,13 +7,16 @@
 //! moves the frame by exactly `k / 4` frame pixels, with no interpolation
 //! model in the ground truth.
 
-mod lk_support;
-
-use lk_support::{Gray, load, median};
+use test_support::images::{Gray, load, median};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::lk::{LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
+
+/// `g` as the library's image view.
+fn view(g: &Gray) -> vslam_core::image::ImageView<'_> {
+    vslam_core::image::ImageView::packed(&g.data, g.width, g.height).unwrap()
+}
 
 const SIDE: usize = 35;
 
@@ -51,7 +54,7 @@ fn track_patch(name: &str, x0: usize, y0: usize, kx: isize, ky: isize) -> (f64, 
         y0.checked_add_signed(-ky).unwrap(),
     );
     let (dx, dy) = (kx as f64 / F as f64, ky as f64 / F as f64);
-    let (va, vb) = (a.view(), b.view());
+    let (va, vb) = (view(&a), view(&b));
     let mut sa = PyramidStorage::<{ storage_bytes(SIDE, SIDE, 2) }>::new();
     let mut sb = PyramidStorage::<{ storage_bytes(SIDE, SIDE, 2) }>::new();
     let pa = Pyramid::build(&va, 2, &mut sa).unwrap();

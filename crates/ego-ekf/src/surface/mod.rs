@@ -10,6 +10,7 @@
 //! - [`anticipation`]: image row -> floor distance -> arrival time;
 //! - [`tracker`]: the floor between maps, its age, staleness fallback and the
 //!   hand-over onto an anticipated floor;
+//! - [`jolt_context`]: what the floor explains for the jolt monitor;
 //! - [`learning`]: per-floor forward-noise multipliers learned from the NIS,
 //!   exported and restored as a checked record.
 //!
@@ -22,6 +23,7 @@
 pub mod anticipation;
 pub mod classes;
 pub mod grip_table;
+pub mod jolt_context;
 pub mod learning;
 pub mod mix;
 pub mod segmentation;
@@ -30,6 +32,7 @@ pub mod tracker;
 pub use anticipation::{Anticipation, CameraError, GroundCamera};
 pub use classes::{ClassConfig, ClassRole, SurfaceKind};
 pub use grip_table::{GripModel, GripTable, GripTableError, WheelType, lerp_params};
+pub use jolt_context::JoltContext;
 pub use learning::{
     FloorStats, LEARNED_RECORD_LEN, LearningConfig, LearningConfigError, NoiseLearner, RecordError,
 };
@@ -44,7 +47,6 @@ use core::fmt;
 use vslam_core::image::LabelView;
 use vslam_core::{Reject, Timestamp};
 
-use crate::events::JoltContext;
 use crate::grip::GripParams;
 
 /// Everything the surface model is configured with.

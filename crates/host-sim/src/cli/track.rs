@@ -1,10 +1,12 @@
 //! `host-sim track IMG1 IMG2`: the two-image vision front end of traction on
-//! files. Shi-Tomasi corners on IMG1 ([`vslam_core::corners`]), pyramidal
-//! Lucas-Kanade into IMG2 ([`vslam_core::lk`], Bouguet's formulation),
-//! a RANSAC homography on the tracked pairs ([`vslam_core::homography`]) and,
-//! given the intrinsics, its decomposition into `{R, t/d, n}` with the
-//! positive-depth selection ([`vslam_core::decompose`], Ma et al., *An
-//! Invitation to 3-D Vision*, sec. 5.3.3).
+//! files. Shi-Tomasi corners on IMG1 ([`vslam_core::corners`]), then the
+//! estimator's camera-path stages ([`traction::frontend`]): pyramidal
+//! Lucas-Kanade into IMG2 ([`track_pairs`], Bouguet's formulation), a RANSAC
+//! homography on the tracked pairs and, given the intrinsics, its
+//! decomposition into `{R, t/d, n}` ([`fit_pairs`]), with the positive-depth
+//! selection ([`vslam_core::decompose`], Ma et al., *An Invitation to 3-D
+//! Vision*, sec. 5.3.3). The options (corner count, window, levels,
+//! threshold, normal prior) are this command's; the stages are the library's.
 
 use super::{
     RANSAC_SEED, format_matrix, homography_row_major, parse_numbers, parse_threshold, ransac_error,
@@ -15,10 +17,11 @@ use crate::pngio::{GrayImage, load_gray};
 use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use traction::frontend::{FitError, fit_pairs, track_pairs};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::decompose::{
     HomographyDecomposition, NormalPrior, PinholeIntrinsics, PlaneMotion, SelectError,
-    SelectParams, Selection, decompose,
+    SelectParams, Selection,
 };
 use vslam_core::geometry::{Vec2, Vec3};
 use vslam_core::homography::{HomographyRansac, RansacParams, RansacReport};
@@ -27,6 +30,9 @@ use vslam_core::pyramid::{Pyramid, storage_bytes};
 
 /// The most corners one run detects and tracks.
 pub const MAX_POINTS: usize = 4096;
+
+/// Tracked points of one image, as many as corners.
+type Pairs = heapless::Vec<Vec2, MAX_POINTS>;
 
 /// Arguments of `host-sim track`.
 #[derive(Debug, Args)]
@@ -210,17 +216,13 @@ fn estimate(args: &TrackArgs) -> Result<Outcome, CliError> {
     })
     .map_err(|e| CliError::Usage(e.to_string()))?;
     let points: Vec<Vec2> = corners.iter().map(Corner::position).collect();
-    let mut results = vec![TrackResult::EMPTY; points.len()];
-    let counts = tracker
-        .track(&pyr1, &pyr2, &points, &mut results)
-        .map_err(|e| CliError::Usage(format!("tracking: {e}")))?;
+    let mut results = Vec::with_capacity(points.len());
+    let (mut p1, mut p2) = (Box::new(Pairs::new()), Box::new(Pairs::new()));
+    let counts = track_pairs(&tracker, &pyr1, &pyr2, &points, (&mut p1, &mut p2), |r| {
+        results.push(*r)
+    })
+    .map_err(|e| CliError::Usage(format!("tracking: {e}")))?;
 
-    let (p1, p2): (Vec<Vec2>, Vec<Vec2>) = points
-        .iter()
-        .zip(&results)
-        .filter(|(_, r)| r.is_tracked())
-        .map(|(p, r)| (*p, r.position))
-        .unzip();
     let what = format!("{} tracked points", p1.len());
     let mut ransac = Box::new(
         HomographyRansac::<MAX_POINTS>::new(RansacParams {
@@ -231,19 +233,22 @@ fn estimate(args: &TrackArgs) -> Result<Outcome, CliError> {
         .map_err(|e| ransac_error(&what, e))?,
     );
     let mut mask = vec![false; p1.len()];
-    let report = ransac
-        .estimate(&p1, &p2, &mut mask)
-        .map_err(|e| ransac_error(&what, e))?;
-
-    let (decomposition, selection) = match calibration {
-        None => (None, None),
-        Some((k, params)) => {
-            let d = decompose(&report.homography, &k).map_err(|e| {
-                CliError::NoResult(format!("the homography cannot be decomposed: {e}"))
-            })?;
-            let s = d.select(&p1, &mask, &params);
-            (Some(d), Some(s))
+    let (report, decomposition) = fit_pairs(
+        &mut ransac,
+        &p1,
+        &p2,
+        &mut mask,
+        calibration.as_ref().map(|(k, _)| k),
+    )
+    .map_err(|e| match e {
+        FitError::Homography(e) => ransac_error(&what, e),
+        FitError::Decomposition(e) => {
+            CliError::NoResult(format!("the homography cannot be decomposed: {e}"))
         }
+    })?;
+    let selection = match (&decomposition, &calibration) {
+        (Some(d), Some((_, params))) => Some(d.select(&p1, &mask, params)),
+        _ => None,
     };
     Ok(Outcome {
         corners,

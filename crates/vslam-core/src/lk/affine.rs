@@ -21,7 +21,7 @@ use nalgebra::{Cholesky, Matrix2, Matrix6, U6, Vector6};
 use crate::geometry::Vec2;
 use crate::image::ImageView;
 
-use super::track::Template;
+use super::template::Template;
 
 /// Weight of the prior toward no deformation, relative to the window's mean
 /// gradient energy: it keeps the deformation bounded where the window does

@@ -52,6 +52,7 @@
 mod affine;
 mod config;
 pub mod sample;
+mod template;
 pub mod track;
 mod window;
 

@@ -256,7 +256,7 @@ fn the_return_strip_after_the_stuck_episode_is_explained() {
 /// Every seed of both scenarios (1-4): the cable on the wood is the only
 /// suspected obstacle, and the filter never resets to the wheels there (every
 /// long gated run of these scenarios is slip, with the flow to tell). Eight
-/// 60 s simulations: run with `cargo test -p traction --test surface_sim --
+/// 60 s simulations: run with `cargo test -p host-sim --test surface_sim --
 /// --ignored`.
 #[test]
 #[ignore = "eight full simulations (five minutes on a loaded 2-core machine)"]

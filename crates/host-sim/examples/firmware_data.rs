@@ -2,7 +2,7 @@
 //! (format: `firmware/src/sample.rs`), deterministically from a seed:
 //!
 //! ```text
-//! cargo run --release --example firmware_data [-- OUT.bin]
+//! cargo run --release -p host-sim --example firmware_data [-- OUT.bin]
 //! ```
 //!
 //! The `short` scenario of `host-sim simulate` (12 s of the office drive,
@@ -26,11 +26,11 @@ use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::Extrinsics;
 
-#[path = "../firmware/src/sample.rs"]
+#[path = "../../../firmware/src/sample.rs"]
 #[allow(dead_code)]
 mod sample;
 
-#[path = "../firmware/src/frames.rs"]
+#[path = "../../../firmware/src/frames.rs"]
 #[allow(dead_code)]
 mod frames;
 
@@ -47,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("firmware/data/sample.bin")
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware/data/sample.bin")
         });
     let (bytes, frames) = sample_data()?;
     if let Some(dir) = out.parent() {

@@ -24,8 +24,9 @@ const W: usize = 320;
 const H: usize = 240;
 
 fn crop(dx: usize, dy: usize) -> Vec<u8> {
-    let img = load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/images/gravel.png"))
-        .expect("the test photograph");
+    let img =
+        load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/images/gravel.png"))
+            .expect("the test photograph");
     assert!(img.width >= W + 40 && img.height >= H + 40);
     let mut out = Vec::with_capacity(W * H);
     for y in 0..H {
@@ -177,8 +178,9 @@ fn a_long_run_of_bad_frames_starts_over() {
 fn a_good_frame_that_cannot_be_tracked_becomes_the_reference() {
     // A different part of the photograph: plenty of corners, no overlap.
     let far = {
-        let img = load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/images/brick.png"))
-            .unwrap();
+        let img =
+            load_gray(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/images/brick.png"))
+                .unwrap();
         let mut out = Vec::with_capacity(W * H);
         for y in 0..H {
             out.extend_from_slice(&img.data[y * img.width..y * img.width + W]);

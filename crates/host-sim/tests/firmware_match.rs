@@ -24,15 +24,15 @@
 //! (another libm, `-C target-cpu`, fused multiply-add experiments).
 #![allow(missing_docs)]
 
-#[path = "../firmware/src/sample.rs"]
+#[path = "../../../firmware/src/sample.rs"]
 #[allow(dead_code)]
 mod sample;
 
-#[path = "../firmware/src/frames.rs"]
+#[path = "../../../firmware/src/frames.rs"]
 #[allow(dead_code)]
 mod frames;
 
-#[path = "../firmware/src/replay.rs"]
+#[path = "../../../firmware/src/replay.rs"]
 #[allow(dead_code)]
 mod replay;
 
@@ -40,8 +40,8 @@ use replay::{FrontEndRun, NoProbe, Summary, Value};
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
 
-static SAMPLE: &[u8] = include_bytes!("../firmware/data/sample.bin");
-static FRAMES: &[u8] = include_bytes!("../firmware/data/frames160.bin");
+static SAMPLE: &[u8] = include_bytes!("../../../firmware/data/sample.bin");
+static FRAMES: &[u8] = include_bytes!("../../../firmware/data/frames160.bin");
 
 /// The host's run of both parts of the firmware: the loop and the front end.
 struct Host {

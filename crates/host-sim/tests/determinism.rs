@@ -4,7 +4,7 @@
 //! One short run, the `short` scenario cut to [`SECONDS`] s with seed
 //! [`SEED`], is simulated into an ASL log and replayed twice: both replays must
 //! write byte-identical files, and those files must equal the committed
-//! reference in `tests/reference/short_seed1/` (the simulated log's
+//! reference in `crates/host-sim/tests/reference/short_seed1/` (the simulated log's
 //! `wheel0/data.csv` and `flow0/data.csv`, and the replay's `ekf.tum`,
 //! `vslam.tum`, `wheel_only.tum` and `report.json`; not the images or the
 //! plot). A mismatch names the file, the first differing line and both
@@ -15,8 +15,8 @@
 //! regenerate the reference on purpose and commit it with the change:
 //!
 //! ```text
-//! UPDATE_REFERENCE=1 cargo test -p traction --test determinism
-//! git add tests/reference/short_seed1
+//! UPDATE_REFERENCE=1 cargo test -p host-sim --test determinism
+//! git add crates/host-sim/tests/reference/short_seed1
 //! ```
 //!
 //! The reference is bit-exact only for one platform and toolchain family (the
@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 const SECONDS: f64 = 5.0;
 /// Seed of the reference run.
 const SEED: u64 = 1;
-/// Where the reference lives, relative to the repository root.
+/// Where the reference lives, relative to this crate (`crates/host-sim`).
 const REFERENCE: &str = "tests/reference/short_seed1";
 /// Files of the simulated log compared (relative to the dataset's `mav0/`).
 const LOG_FILES: [&str; 2] = ["wheel0/data.csv", "flow0/data.csv"];
@@ -107,8 +107,8 @@ fn short_run_is_deterministic_and_matches_the_reference() {
         return;
     }
     let how = "if the change is intended, regenerate on purpose with\n  \
-               UPDATE_REFERENCE=1 cargo test -p traction --test determinism\n\
-               and commit tests/reference/short_seed1 with the change";
+               UPDATE_REFERENCE=1 cargo test -p host-sim --test determinism\n\
+               and commit crates/host-sim/tests/reference/short_seed1 with the change";
     let mut mismatches = Vec::new();
     for (name, path) in &files {
         let want_path = reference.join(name);

@@ -4,7 +4,7 @@
 //! and flow paths).
 //!
 //! ```text
-//! cargo test --release -p traction --test soak -- --ignored --nocapture
+//! cargo test --release -p host-sim --test soak -- --ignored --nocapture
 //! ```
 //!
 //! The drive is the simulator's office lap (wood, a cable, threshold strips,
@@ -29,7 +29,7 @@
 //!
 //! `SOAK_IMU_STEPS=N` runs a shorter trial. The test profile (ego-ekf,
 //! vslam-core and host-sim are optimised there too) runs the hour as well:
-//! `cargo test -p traction --test soak -- --ignored --nocapture`.
+//! `cargo test -p host-sim --test soak -- --ignored --nocapture`.
 //!
 //! # Result (x86_64, test profile, measured 2026-11-22)
 //!
@@ -52,9 +52,6 @@
 //! 3600 checks (the pose-clone note in `check`); without the clone it never
 //! did.
 
-use ego_ekf::covariance::{is_positive_definite, looks_valid};
-use ego_ekf::state::{BA, BG, CL, CP, CR, Covariance, DIM, RAD_L, RAD_R, TH, V};
-use ego_ekf::{FilterConfig, FlowConfig};
 use host_sim::sim::motion::{Robot, TRUTH_STEP_NS, TruthStep, integrate};
 use host_sim::sim::script::Script;
 use host_sim::sim::sensors::{FlowModel, ImuModel, flow, imu};
@@ -63,6 +60,9 @@ use nalgebra::SMatrix;
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use std::time::Instant;
+use traction::ego_ekf::covariance::{is_positive_definite, looks_valid};
+use traction::ego_ekf::state::{BA, BG, CL, CP, CR, Covariance, DIM, RAD_L, RAD_R, TH, V};
+use traction::ego_ekf::{FilterConfig, FlowConfig};
 use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::reorder::Event;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};

@@ -1,6 +1,6 @@
-//! Test helpers for the LK tests and the LK bench: load the photographs,
-//! crop them, warp them by a known homography.
-#![allow(dead_code)]
+//! Test images for the LK and corner tests, benches and examples: load the
+//! photographs, crop them, warp them by a known homography, shift them by a
+//! known offset, or make a seeded random texture.
 
 use std::path::{Path, PathBuf};
 
@@ -12,10 +12,6 @@ pub struct Gray {
 }
 
 impl Gray {
-    pub fn view(&self) -> vslam_core::image::ImageView<'_> {
-        vslam_core::image::ImageView::packed(&self.data, self.width, self.height).unwrap()
-    }
-
     pub fn at(&self, x: usize, y: usize) -> u8 {
         self.data[y * self.width + x]
     }

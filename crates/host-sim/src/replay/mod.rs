@@ -1,0 +1,181 @@
+//! Replay of a recorded ASL dataset through `traction::Estimator`, and the
+//! files it writes: `ekf.tum`, `vslam.tum`, `wheel_only.tum`, `report.json`,
+//! `trajectory.svg`. All estimation happens in the no_std crates; this
+//! module only reads, feeds, collects and writes: `config.rs` builds the
+//! configuration from the dataset's metadata, `run.rs` is the loop through
+//! the estimator, `report.rs` writes the report and the summary.
+
+mod config;
+mod report;
+mod run;
+
+pub use report::{summary_table, write_outputs};
+
+use crate::asl::Dataset;
+use crate::error::CliError;
+use crate::faults::{FailedRead, Stream};
+use crate::metrics::TrajectoryError;
+use crate::tum::TumPose;
+use serde_json::Value;
+use std::path::Path;
+use traction::reorder::Event;
+use traction::vslam_core::{Reject, Timestamp};
+
+/// What a replay produced.
+pub struct ReplayOutput {
+    /// The EKF's body trajectory.
+    pub ekf: Vec<TumPose>,
+    /// Camera poses composed with the metric scale, expressed for the body.
+    pub vslam: Vec<TumPose>,
+    /// Wheel odometry alone.
+    pub wheel_only: Vec<TumPose>,
+    /// The report.
+    pub report: Value,
+    /// Errors against ground truth, when present: `(name, error)`.
+    pub errors: Vec<(&'static str, TrajectoryError)>,
+    /// The outcome of every sample, frame, map and failed read, in
+    /// processing order: stream, time stamp, `fused` (`first` for a first
+    /// camera frame) or the reason name.
+    pub outcomes: Outcomes,
+    /// The filter's health after every IMU step.
+    pub health: Health,
+}
+
+/// The filter's health, checked after every processed IMU sample once the
+/// filter runs: every nominal state value finite, the covariance finite,
+/// symmetric and positive definite (Cholesky of the correlation matrix,
+/// `ego_ekf::covariance::is_positive_definite`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Health {
+    /// Steps checked.
+    pub steps: u32,
+    /// Steps with a non-finite state value.
+    pub non_finite: u32,
+    /// Steps whose covariance was not symmetric positive definite.
+    pub not_spd: u32,
+}
+
+impl Health {
+    fn check(&mut self, ekf: &traction::ego_ekf::EgoEkf) {
+        if !ekf.is_initialised() {
+            return;
+        }
+        let x = ekf.state();
+        let finite = [
+            x.p_wb,
+            x.v_wb,
+            x.accel_bias,
+            x.gyro_bias,
+            x.gravity,
+            x.clone_p_wb,
+            x.p_bl,
+            x.p_br,
+        ]
+        .iter()
+        .all(|v| v.iter().all(|c| c.is_finite()))
+            && [x.q_wb, x.clone_q_wb, x.q_rb]
+                .iter()
+                .all(|q| q.coords.iter().all(|c| c.is_finite()))
+            && x.radius_left.is_finite()
+            && x.radius_right.is_finite();
+        self.steps += 1;
+        if !finite {
+            self.non_finite += 1;
+        }
+        if !traction::ego_ekf::covariance::is_positive_definite(ekf.covariance()) {
+            self.not_spd += 1;
+        }
+    }
+
+    /// Whether every checked step was healthy.
+    pub fn ok(&self) -> bool {
+        self.non_finite == 0 && self.not_spd == 0
+    }
+}
+
+/// Outcomes of samples in processing order: stream, time stamp, name.
+pub type Outcomes = Vec<(Stream, Timestamp, &'static str)>;
+
+/// What reaches the estimator instead of the dataset's own sample streams
+/// (`simulate --faults`): samples in arrival order, and reads that failed.
+#[derive(Clone, Debug, Default)]
+pub struct Feed {
+    /// `(arrival, sample)`: the estimator gets them sorted by arrival (stably).
+    pub samples: Vec<(Timestamp, Event)>,
+    /// Reads that produced no sample.
+    pub failed: Vec<FailedRead>,
+}
+
+/// How a replay is run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReplayOptions {
+    /// Use the segmentation maps (when the dataset has them) for the
+    /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
+    /// grip and one fixed jolt threshold, for comparison.
+    pub surface_model: bool,
+    /// The camera path's
+    /// [`FrontEndConfig::redetect_below`](traction::frontend::FrontEndConfig::redetect_below)
+    /// (fewest inliers carried into the next frame before corners are
+    /// detected afresh); `None` for its default.
+    pub redetect_below: Option<usize>,
+}
+
+impl Default for ReplayOptions {
+    /// The surface model on, the camera path's defaults.
+    fn default() -> Self {
+        ReplayOptions {
+            surface_model: true,
+            redetect_below: None,
+        }
+    }
+}
+
+/// Replays `ds` (read from `root`) through the estimator.
+pub fn replay(ds: &Dataset, root: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
+    replay_with(ds, root, progress, ReplayOptions::default())
+}
+
+/// Replays `ds` (read from `root`) through the estimator, run as `options` say.
+pub fn replay_with(
+    ds: &Dataset,
+    root: &Path,
+    progress: bool,
+    options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
+    replay_feed(ds, root, progress, options, None)
+}
+
+/// [`replay_with`], with the sample streams replaced by `feed` when given
+/// (the dataset's images, metadata and truth stay).
+pub fn replay_feed(
+    ds: &Dataset,
+    root: &Path,
+    progress: bool,
+    options: ReplayOptions,
+    feed: Option<&Feed>,
+) -> Result<ReplayOutput, CliError> {
+    run::run(ds, root, progress, options, feed)
+}
+
+/// Reads, replays and writes: the `replay` command's work.
+pub fn run_replay(dataset: &Path, out: &Path, progress: bool) -> Result<ReplayOutput, CliError> {
+    run_replay_with(dataset, out, progress, ReplayOptions::default())
+}
+
+/// [`run_replay`], run as `options` say.
+pub fn run_replay_with(
+    dataset: &Path,
+    out: &Path,
+    progress: bool,
+    options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
+    let ds = crate::asl::read_dataset(dataset)?;
+    let r = replay_with(&ds, dataset, progress, options)?;
+    write_outputs(out, &r, ds.groundtruth.as_deref())?;
+    Ok(r)
+}
+
+/// Rejection reason names, for reports and tests.
+pub fn reason_names() -> Vec<&'static str> {
+    Reject::ALL.iter().map(|r| r.name()).collect()
+}

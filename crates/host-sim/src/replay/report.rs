@@ -1,0 +1,273 @@
+//! The replay's report: `report.json` (sample counts with their reason
+//! names, scale decisions, surface timeline, jolt events, the filter's final
+//! state), the files a replay writes, and the summary table printed after a
+//! run with ground truth.
+
+use super::ReplayOutput;
+use super::run::Collected;
+use crate::asl::GroundTruth;
+use crate::error::CliError;
+use crate::svg::{Series, top_view};
+use crate::tum::{TumPose, write_tum};
+use serde_json::{Value, json};
+use std::path::Path;
+use traction::estimator::Estimator;
+use traction::vslam_core::scale::FrameDecision;
+use traction::vslam_core::{SampleCounts, StreamCounts, Timestamp};
+
+fn counts_json(c: &SampleCounts) -> Value {
+    let mut rejected = serde_json::Map::new();
+    for (r, n) in c.by_reason() {
+        if n > 0 {
+            rejected.insert(r.name().to_string(), json!(n));
+        }
+    }
+    json!({"seen": c.seen(), "fused": c.fused(), "gated": c.gated(), "rejected": rejected})
+}
+
+/// `counts` of `report.json`: every stream of the registry by its name,
+/// zeros for a stream the run did not have.
+fn stream_counts_json(c: &StreamCounts) -> Value {
+    Value::Object(
+        c.iter()
+            .map(|(s, c)| (s.name().to_string(), counts_json(c)))
+            .collect(),
+    )
+}
+
+/// One scale decision of the camera path, for the report's `frames`.
+pub(super) fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
+    let (scale, source, why) = match &d.scale {
+        Ok(s) => (
+            json!(s.scale),
+            json!(format!("{:?}", s.source).to_lowercase()),
+            Value::Null,
+        ),
+        Err(e) => (Value::Null, Value::Null, json!(format!("{e:?}"))),
+    };
+    json!({
+        "t": t.0,
+        "method": format!("{:?}", d.method),
+        "baseline": d.baseline,
+        "camera_confidence": d.camera_confidence,
+        "wheel_m": d.wheel.metres, "wheel_confidence": d.wheel.confidence,
+        "flow_m": d.flow.metres, "flow_confidence": d.flow.confidence,
+        "slip": d.slip.amount, "slip_exceeded": d.slip.exceeded, "slip_cause": format!("{:?}", d.slip.cause),
+        "wheel_outlier": d.wheel_outlier,
+        "scale": scale, "source": source, "no_scale": why,
+        "applied_scale": d.applied_scale,
+    })
+}
+
+/// The filter's state at the end of the run.
+fn final_json(est: &Estimator<'_>) -> Value {
+    let ekf = est.ekf();
+    json!({
+        "wheel_radii": ekf.wheel_radii(),
+        "flow_velocity_resets": ekf.flow_resets(),
+        "wheel_lockout": {
+            "resets_to_flow": ekf.recovery().resets_to_flow,
+            "resets_to_wheels": ekf.recovery().resets_to_wheels,
+            "kept_gating_wheels_slip": ekf.recovery().wheels_slip,
+            "kept_gating_no_trusted_source": ekf.recovery().no_trusted_source,
+        },
+        "imu_gaps_bridged": ekf.gaps().bridged,
+        "wheel_radius_std": ekf.wheel_radius_std(),
+        "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
+        "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],
+        "running_scale": est.scale().running_scale().map(|r| r.scale),
+    })
+}
+
+/// The report of a run: what was missing, what `c` collected and the
+/// estimator's counts and final state.
+pub(super) fn report_json(missing: &[&'static str], c: &Collected, est: &Estimator<'_>) -> Value {
+    let jolts: Vec<Value> = c
+        .jolts
+        .iter()
+        .map(|e| {
+            json!({"t": e.t.0, "kind": format!("{:?}", e.kind), "magnitude": e.magnitude,
+                   "explained": e.explained, "surface": e.surface.map(|s| s.name())})
+        })
+        .collect();
+    let counts = est.counts();
+    let ekf = est.ekf();
+    json!({
+        "missing_sensors": missing,
+        "counts": stream_counts_json(&counts),
+        "filter_counts": {
+            "imu": counts_json(ekf.imu_counts()),
+            "wheel": counts_json(ekf.wheel_counts()),
+            "flow": counts_json(ekf.flow_counts()),
+            "zupt": counts_json(ekf.zupt_counts()),
+        },
+        "frames": c.decisions,
+        "camera_rejections": c.camera_rejections,
+        "camera_path": {
+            "frames": c.camera_frames,
+            "corner_detections": est.frontend().map(|f| f.corner_detections()),
+        },
+        "surface_timeline": c.surfaces,
+        "events": jolts,
+        "final": final_json(est),
+    })
+}
+
+/// The report with the trajectory errors, when there are any.
+fn report_with_errors(r: &ReplayOutput) -> Value {
+    let mut report = r.report.clone();
+    if !r.errors.is_empty() {
+        let errs: serde_json::Map<String, Value> = r
+            .errors
+            .iter()
+            .map(|(n, e)| {
+                ((*n).to_string(), json!({"ate_rmse_m": e.ate_rmse, "final_error_m": e.final_error,
+                    "final_error_pct_of_path": 100.0 * e.final_relative(), "path_length_m": e.path_length}))
+            })
+            .collect();
+        report["errors"] = Value::Object(errs);
+    }
+    report
+}
+
+/// The top view: truth (when given), EKF, camera and wheel-only paths.
+fn trajectory_svg(r: &ReplayOutput, truth: Option<&[GroundTruth]>) -> String {
+    let xy = |v: &[TumPose]| v.iter().map(|p| (p.p[0], p.p[1])).collect::<Vec<_>>();
+    let (e, v, w) = (xy(&r.ekf), xy(&r.vslam), xy(&r.wheel_only));
+    let t: Vec<(f64, f64)> = truth
+        .map(|g| g.iter().map(|g| (g.p[0], g.p[1])).collect())
+        .unwrap_or_default();
+    let mut series = vec![
+        Series {
+            label: "EKF",
+            colour: "#d62728",
+            points: &e,
+        },
+        Series {
+            label: "VSLAM (metric scale)",
+            colour: "#1f77b4",
+            points: &v,
+        },
+        Series {
+            label: "wheel only",
+            colour: "#ff7f0e",
+            points: &w,
+        },
+    ];
+    if !t.is_empty() {
+        series.insert(
+            0,
+            Series {
+                label: "truth",
+                colour: "black",
+                points: &t,
+            },
+        );
+    }
+    top_view("traction: top view", &series)
+}
+
+/// Writes the replay's files into `out`.
+pub fn write_outputs(
+    out_dir: &Path,
+    r: &ReplayOutput,
+    truth: Option<&[GroundTruth]>,
+) -> Result<(), CliError> {
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| CliError::file(out_dir, format!("cannot create: {e}")))?;
+    write_tum(&out_dir.join("ekf.tum"), &r.ekf)?;
+    write_tum(&out_dir.join("vslam.tum"), &r.vslam)?;
+    write_tum(&out_dir.join("wheel_only.tum"), &r.wheel_only)?;
+    let text = serde_json::to_string_pretty(&report_with_errors(r))
+        .map_err(|e| CliError::file(out_dir, e.to_string()))?;
+    let p = out_dir.join("report.json");
+    std::fs::write(&p, text).map_err(|e| CliError::file(&p, format!("cannot write: {e}")))?;
+    let p = out_dir.join("trajectory.svg");
+    std::fs::write(&p, trajectory_svg(r, truth))
+        .map_err(|e| CliError::file(&p, format!("cannot write: {e}")))
+}
+
+/// The error table: one line per trajectory.
+fn errors_table(r: &ReplayOutput) -> String {
+    let mut s = String::new();
+    s += "trajectory   ATE RMSE [m]  final error [m]  final / path\n";
+    for (n, e) in &r.errors {
+        s += &format!(
+            "{n:<12} {:>12.3}  {:>15.3}  {:>11.2} %\n",
+            e.ate_rmse,
+            e.final_error,
+            100.0 * e.final_relative()
+        );
+    }
+    s
+}
+
+/// Scale decisions by source, pairs with slip, and the corner detections.
+fn decisions_summary(report: &Value) -> String {
+    let mut s = String::new();
+    let frames = report["frames"].as_array().map(Vec::len).unwrap_or(0);
+    let mut by_source = std::collections::BTreeMap::new();
+    let mut slips = 0usize;
+    for f in report["frames"].as_array().into_iter().flatten() {
+        let key = f["source"]
+            .as_str()
+            .map(str::to_string)
+            .unwrap_or_else(|| "no scale".into());
+        *by_source.entry(key).or_insert(0usize) += 1;
+        if f["slip_exceeded"].as_bool() == Some(true) {
+            slips += 1;
+        }
+    }
+    s += &format!("scale decisions over {frames} frame pairs: ");
+    s += &by_source
+        .iter()
+        .map(|(k, v)| format!("{k} {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    s += &format!("\nframe pairs with slip: {slips}\n");
+    if let Some(n) = report["camera_path"]["corner_detections"].as_u64() {
+        s += &format!(
+            "corners detected on {n} of {} frames (the others carry the last pair's inliers)\n",
+            report["camera_path"]["frames"]
+        );
+    }
+    s
+}
+
+/// Gated and rejected samples per stream.
+fn counts_summary(report: &Value) -> String {
+    let c = &report["counts"];
+    let n = |v: &Value| v.as_u64().unwrap_or(0);
+    format!(
+        "gated samples: wheel {}, flow {}; rejected: imu {}, wheel {}, flow {}, camera {}\n",
+        c["wheel"]["gated"],
+        c["flow"]["gated"],
+        n(&c["imu"]["seen"]).saturating_sub(n(&c["imu"]["fused"])),
+        n(&c["wheel"]["seen"]).saturating_sub(n(&c["wheel"]["fused"]) + n(&c["wheel"]["gated"])),
+        n(&c["flow"]["seen"]).saturating_sub(n(&c["flow"]["fused"]) + n(&c["flow"]["gated"])),
+        n(&c["camera"]["seen"]).saturating_sub(n(&c["camera"]["fused"])),
+    )
+}
+
+/// Jolt events by kind.
+fn events_summary(report: &Value) -> String {
+    let events = report["events"]
+        .as_array()
+        .map(|v| v.as_slice())
+        .unwrap_or(&[]);
+    let count = |k: &str| events.iter().filter(|e| e["kind"] == k).count();
+    format!(
+        "events: suspected obstacles {}, threshold strips {}, surface noise {}\n",
+        count("SuspectedObstacle"),
+        count("ThresholdStrip"),
+        count("SurfaceNoise")
+    )
+}
+
+/// The summary table printed after a run with ground truth.
+pub fn summary_table(r: &ReplayOutput) -> String {
+    errors_table(r)
+        + &decisions_summary(&r.report)
+        + &counts_summary(&r.report)
+        + &events_summary(&r.report)
+}

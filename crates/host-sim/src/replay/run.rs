@@ -1,0 +1,434 @@
+//! The replay's run loop: every sample, failed read, camera frame and
+//! segmentation map in time order through `traction::Estimator`, and what
+//! it answers collected for the trajectories and the report.
+
+use super::config::{estimator_config, frontend_config, sensor_yaml};
+use super::report::{decision_json, report_json};
+use super::{Feed, Health, Outcomes, ReplayOptions, ReplayOutput};
+use crate::asl::{Dataset, GroundTruth};
+use crate::error::CliError;
+use crate::faults::{FailedRead, Stream};
+use crate::metrics::trajectory_error;
+use crate::pngio::load_gray;
+use crate::tum::TumPose;
+use serde_json::{Value, json};
+use std::path::Path;
+use traction::ego_ekf::events::JoltEvent;
+use traction::estimator::{Estimator, Processed};
+use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
+use traction::reorder::Event;
+use traction::vslam_core::geometry::{Quat, Vec3};
+use traction::vslam_core::image::LabelView;
+use traction::vslam_core::sensors::WheelTicks;
+use traction::vslam_core::{Reject, Timestamp};
+use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
+
+pub(super) fn outcome_name<T>(r: &Result<T, Reject>) -> &'static str {
+    match r {
+        Ok(_) => "fused",
+        Err(e) => e.name(),
+    }
+}
+
+fn processed_outcome(p: &Processed) -> (Stream, Timestamp, &'static str) {
+    let name = match p {
+        Processed::Imu { outcome, .. } => outcome_name(outcome),
+        Processed::Wheel { outcome, .. } => match outcome {
+            Ok(inn) if inn.gated => "gated",
+            o => outcome_name(o),
+        },
+        Processed::Flow { outcome, .. } => outcome_name(outcome),
+    };
+    (p.stream(), p.t(), name)
+}
+
+fn pose(t: Timestamp, p: Vec3, q: &Quat) -> TumPose {
+    TumPose {
+        t,
+        p: [p.x as f64, p.y as f64, p.z as f64],
+        q_xyzw: [q.i as f64, q.j as f64, q.k as f64, q.w as f64],
+    }
+}
+
+/// One item of the replay's schedule.
+enum Next {
+    Sample(Event),
+    Failed(usize),
+    Camera(usize),
+    Labels(usize),
+}
+
+/// The camera path's memory, borrowed by the estimator.
+struct FrontEndMemory {
+    previous_frame: Vec<u8>,
+    previous_pyramid: Vec<u8>,
+    current_pyramid: Vec<u8>,
+    corner_scratch: Vec<f32>,
+}
+
+impl FrontEndMemory {
+    fn new(config: Option<&FrontEndConfig>) -> Self {
+        let sizes = config
+            .map(|c| FrontEndBuffers::sizes(c.width, c.height, c.levels, c.corners.block_size))
+            .unwrap_or([0; 4]);
+        FrontEndMemory {
+            previous_frame: vec![0u8; sizes[0]],
+            previous_pyramid: vec![0u8; sizes[1]],
+            current_pyramid: vec![0u8; sizes[2]],
+            corner_scratch: vec![0f32; sizes[3]],
+        }
+    }
+
+    /// The camera path over this memory, when there is a camera.
+    fn frontend(
+        &mut self,
+        config: Option<FrontEndConfig>,
+        root: &Path,
+    ) -> Result<Option<FrontEnd<'_>>, CliError> {
+        let Some(c) = config else { return Ok(None) };
+        let buffers = FrontEndBuffers {
+            previous_frame: &mut self.previous_frame,
+            previous_pyramid: &mut self.previous_pyramid,
+            current_pyramid: &mut self.current_pyramid,
+            corner_scratch: &mut self.corner_scratch,
+        };
+        FrontEnd::new(c, buffers)
+            .map(Some)
+            .map_err(|e| CliError::file(&sensor_yaml(root, "cam0"), e.to_string()))
+    }
+}
+
+/// Every stream in time order; images after the samples of the same time
+/// stamp. `feed`, when given, replaces the dataset's sample streams.
+fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
+    let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
+    match feed {
+        None => {
+            if let Some((_, imu)) = &ds.imu {
+                items.extend(imu.iter().map(|s| (s.t, 0, Next::Sample(Event::Imu(*s)))));
+            }
+            if let Some((_, wheels)) = &ds.wheel {
+                items.extend(
+                    wheels
+                        .iter()
+                        .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
+                );
+            }
+            if let Some((_, f)) = &ds.flow {
+                items.extend(f.iter().map(|s| (s.t, 0, Next::Sample(Event::Flow(*s)))));
+            }
+        }
+        Some(feed) => {
+            items.extend(feed.samples.iter().map(|(a, e)| (*a, 0, Next::Sample(*e))));
+            items.extend(
+                feed.failed
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| (f.t, 0, Next::Failed(i))),
+            );
+        }
+    }
+    if let Some((_, frames)) = &ds.cam {
+        items.extend(
+            frames
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 1, Next::Camera(i))),
+        );
+    }
+    if let Some((_, maps)) = &ds.seg {
+        items.extend(
+            maps.iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 2, Next::Labels(i))),
+        );
+    }
+    items.sort_by_key(|(t, k, _)| (*t, *k));
+    items
+}
+
+fn progress_bar(progress: bool, len: usize) -> Option<indicatif::ProgressBar> {
+    progress.then(|| {
+        let b = indicatif::ProgressBar::new(len as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "replay {bar:40} {percent:>3}% {pos}/{len} samples, eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    })
+}
+
+/// What the run collects from the estimator's answers.
+#[derive(Default)]
+pub(super) struct Collected {
+    /// The EKF's poses, one per fused IMU sample once it runs.
+    pub ekf: Vec<TumPose>,
+    /// One report entry per scale decision.
+    pub decisions: Vec<Value>,
+    /// The camera's body poses.
+    pub vslam: Vec<TumPose>,
+    /// One report entry per segmentation map.
+    pub surfaces: Vec<Value>,
+    /// Camera frames refused, with the reason.
+    pub camera_rejections: Vec<Value>,
+    /// Frames given to the camera path (the first of a run is no pair, so
+    /// the camera counts' `seen` is one fewer).
+    pub camera_frames: u64,
+    /// Every jolt as it is judged: the monitor's own log keeps only the
+    /// last few, a report keeps them all.
+    pub jolts: Vec<JoltEvent>,
+    /// Every outcome in processing order.
+    pub outcomes: Outcomes,
+    /// The filter's health, checked when `check_health`.
+    pub health: Health,
+    check_health: bool,
+}
+
+impl Collected {
+    /// One sample the estimator processed.
+    fn handle(&mut self, p: Processed, est: &Estimator<'_>) {
+        self.outcomes.push(processed_outcome(&p));
+        if self.check_health && matches!(p, Processed::Imu { .. }) {
+            self.health.check(est.ekf());
+        }
+        if let Processed::Imu { jolt: Some(e), .. } = p {
+            self.jolts.push(e);
+        }
+        if let Processed::Imu {
+            t, outcome: Ok(_), ..
+        } = p
+            && est.ekf().is_initialised()
+        {
+            self.ekf
+                .push(pose(t, est.ekf().position(), &est.ekf().attitude()));
+        }
+    }
+
+    /// Everything the estimator has ready.
+    fn drain(&mut self, est: &mut Estimator<'_>) {
+        while let Some(p) = est.poll() {
+            self.handle(p, est);
+        }
+    }
+
+    /// Everything up to `t`, before an image of time `t`.
+    fn drain_until(&mut self, est: &mut Estimator<'_>, t: Timestamp) {
+        while let Some(p) = est.poll_until(t) {
+            self.handle(p, est);
+        }
+    }
+
+    /// A read that produced no sample.
+    fn failed(&mut self, est: &mut Estimator<'_>, f: &FailedRead) {
+        est.reject_read(f.stream, f.reason);
+        self.outcomes.push((f.stream, f.t, f.reason.name()));
+    }
+
+    /// Camera frame `k` of the dataset.
+    fn camera(
+        &mut self,
+        est: &mut Estimator<'_>,
+        ds: &Dataset,
+        t: Timestamp,
+        k: usize,
+    ) -> Result<(), CliError> {
+        self.drain_until(est, t);
+        let Some((_, frames)) = &ds.cam else {
+            return Ok(());
+        };
+        let Some(entry) = frames.get(k) else {
+            return Ok(());
+        };
+        let img = load_gray(&entry.path)?;
+        let view = img
+            .view()
+            .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
+        let outcome = est.process_camera(t, &view);
+        self.camera_frames += 1;
+        self.outcomes.push((
+            Stream::Camera,
+            t,
+            match &outcome {
+                Ok(None) => "first",
+                o => outcome_name(o),
+            },
+        ));
+        match outcome {
+            Ok(Some(d)) => {
+                self.decisions.push(decision_json(t, &d));
+                let b = est.scale().body_pose();
+                self.vslam.push(pose(t, b.translation.vector, &b.rotation));
+            }
+            Ok(None) => {
+                let b = est.scale().body_pose();
+                self.vslam.push(pose(t, b.translation.vector, &b.rotation));
+            }
+            Err(r) => self
+                .camera_rejections
+                .push(json!({"t": t.0, "reason": r.name()})),
+        }
+        Ok(())
+    }
+
+    /// Segmentation map `k` of the dataset.
+    fn labels(
+        &mut self,
+        est: &mut Estimator<'_>,
+        ds: &Dataset,
+        t: Timestamp,
+        k: usize,
+    ) -> Result<(), CliError> {
+        self.drain_until(est, t);
+        let Some((_, maps)) = &ds.seg else {
+            return Ok(());
+        };
+        let Some(entry) = maps.get(k) else {
+            return Ok(());
+        };
+        let img = load_gray(&entry.path)?;
+        let labels = LabelView::new(&img.data, img.width, img.height, img.width)
+            .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
+        let outcome = est.process_segmentation(t, &labels);
+        self.outcomes
+            .push((Stream::Segmentation, t, outcome_name(&outcome)));
+        let state = est.surface().map(|s| s.state_at(t));
+        let grip = est.surface().map(|s| s.grip_params(t));
+        self.surfaces.push(json!({
+            "t": t.0,
+            "outcome": match outcome { Ok(()) => "used".to_string(), Err(r) => r.name().to_string() },
+            "surface": state.and_then(|s| s.dominant()).map(|k| k.name()),
+            "grip": grip.map(|g| g.grip()),
+            "forward_std": grip.map(|g| g.forward_std()),
+        }));
+        Ok(())
+    }
+
+    /// One item of the schedule.
+    fn step(
+        &mut self,
+        est: &mut Estimator<'_>,
+        ds: &Dataset,
+        feed: Option<&Feed>,
+        t: Timestamp,
+        next: &Next,
+    ) -> Result<(), CliError> {
+        match next {
+            Next::Sample(e) => {
+                est.offer(*e);
+                self.drain(est);
+            }
+            Next::Failed(k) => {
+                if let Some(f) = feed.and_then(|f| f.failed.get(*k)) {
+                    self.failed(est, f);
+                }
+            }
+            Next::Camera(k) => self.camera(est, ds, t, *k)?,
+            Next::Labels(k) => self.labels(est, ds, t, *k)?,
+        }
+        Ok(())
+    }
+}
+
+/// Replays `ds` (read from `root`) through the estimator; `feed`, when
+/// given, replaces the dataset's sample streams.
+pub(super) fn run(
+    ds: &Dataset,
+    root: &Path,
+    progress: bool,
+    options: ReplayOptions,
+    feed: Option<&Feed>,
+) -> Result<ReplayOutput, CliError> {
+    // Any sensor may be absent: what is missing simply never arrives, and the
+    // report's `missing_sensors` says so. Without an IMU the EKF never starts
+    // (ekf.tum stays empty); without wheels the EKF runs on IMU and flow.
+    let missing = ds.missing();
+    let config = estimator_config(ds, root, options)?;
+    let fe_config = frontend_config(ds, root, config.scale.camera, options)?;
+    let mut memory = FrontEndMemory::new(fe_config.as_ref());
+    let frontend = memory.frontend(fe_config, root)?;
+    let mut est = Box::new(
+        Estimator::new(&config, frontend)
+            .map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
+    );
+
+    let items = schedule(ds, feed);
+    let bar = progress_bar(progress, items.len());
+    let mut c = Collected {
+        check_health: feed.is_some(),
+        ..Collected::default()
+    };
+    for (i, (t, _, next)) in items.iter().enumerate() {
+        c.step(&mut est, ds, feed, *t, next)?;
+        if let Some(b) = &bar
+            && i % 256 == 0
+        {
+            b.set_position(i as u64);
+        }
+    }
+    est.finish();
+    c.drain(&mut est);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+
+    let wheels = ds.wheel.as_ref().map(|(_, v)| v.as_slice()).unwrap_or(&[]);
+    let wheel_only = wheel_only(&config.odometry, wheels);
+    let report = report_json(&missing, &c, &est);
+    let errors = match &ds.groundtruth {
+        Some(gt) => errors(
+            gt,
+            [
+                ("ekf", &c.ekf),
+                ("vslam", &c.vslam),
+                ("wheel_only", &wheel_only),
+            ],
+        ),
+        None => Vec::new(),
+    };
+    Ok(ReplayOutput {
+        ekf: c.ekf,
+        vslam: c.vslam,
+        wheel_only,
+        report,
+        errors,
+        outcomes: c.outcomes,
+        health: c.health,
+    })
+}
+
+/// Each trajectory's error against ground truth, for those that have one.
+fn errors(
+    gt: &[GroundTruth],
+    trajectories: [(&'static str, &Vec<TumPose>); 3],
+) -> Vec<(&'static str, crate::metrics::TrajectoryError)> {
+    let truth: Vec<(u64, [f64; 3])> = gt.iter().map(|g| (g.t.0, g.p)).collect();
+    trajectories
+        .into_iter()
+        .filter_map(|(name, traj)| trajectory_error(traj, &truth).map(|e| (name, e)))
+        .collect()
+}
+
+/// Dead reckoning from the wheels alone: the baseline every estimate must beat.
+fn wheel_only(params: &DiffDriveParams, wheels: &[WheelTicks]) -> Vec<TumPose> {
+    let mut odo = DiffDriveOdometry::new(*params);
+    let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
+    let mut out = Vec::with_capacity(wheels.len());
+    for w in wheels {
+        if let Ok(Some(step)) = odo.update(*w) {
+            let d = step.delta.translation;
+            let (s, c) = yaw.sin_cos();
+            x += c * d.x as f64 - s * d.y as f64;
+            y += s * d.x as f64 + c * d.y as f64;
+            yaw += step.delta.dyaw as f64;
+        }
+        let (s, c) = (0.5 * yaw).sin_cos();
+        out.push(TumPose {
+            t: w.t,
+            p: [x, y, 0.0],
+            q_xyzw: [0.0, 0.0, s, c],
+        });
+    }
+    out
+}

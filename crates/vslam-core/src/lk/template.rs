@@ -1,0 +1,377 @@
+//! The template window of one point at one level (Bouguet 2000, section
+//! 2.4): its intensities, Scharr gradients and inverse spatial gradient
+//! matrix, and the image mismatch against it that each Lucas-Kanade
+//! iteration solves. Shared by the translational pass ([`super::track`]) and
+//! the affine refinement ([`super::affine`]); a leaf of the `lk` module.
+
+use crate::geometry::Vec2;
+use crate::image::ImageView;
+
+use super::config::MAX_WINDOW;
+use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
+
+/// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
+const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
+/// One template row: intensities, gradients or the column mask.
+pub(super) type TplRow = [f32; TPL];
+
+/// The left, centre and right [`TPL`]-wide views of a patch row.
+type Taps<'a> = (&'a [f32; TPL], &'a [f32; TPL], &'a [f32; TPL]);
+fn taps(p: &Row) -> Option<Taps<'_>> {
+    Some((
+        p.first_chunk::<TPL>()?,
+        p.get(1..)?.first_chunk::<TPL>()?,
+        p.get(2..)?.first_chunk::<TPL>()?,
+    ))
+}
+
+/// The template window of one point at one level: intensities, Scharr
+/// gradients (zero past column `n`, so padded columns add nothing) and the
+/// inverse of the spatial gradient matrix `G`; rows are [`Row`]s.
+pub(super) struct Template {
+    pub(super) n: usize,
+    pub(super) t: [TplRow; MAX_WINDOW],
+    pub(super) gx: [TplRow; MAX_WINDOW],
+    pub(super) gy: [TplRow; MAX_WINDOW],
+    /// 1 for the `n` window columns, 0 for the padding.
+    mask: TplRow,
+    /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
+    g_inv: [f32; 3],
+    /// Three consecutive rows of the sampled window with its one-pixel
+    /// frame (the gradients' support), used as a ring while filling.
+    patch: [Row; 3],
+    /// A copied source row (near edges) and two horizontally interpolated
+    /// rows: scratch of [`Template::mismatch`], kept here so that no call
+    /// zeroes buffers.
+    src: [u8; SRC],
+    rows: [Row; 2],
+}
+
+/// Why a template could not be built.
+pub(super) enum TemplateFault {
+    OutOfBounds,
+    LowEigenvalue,
+}
+
+/// The sums one pass over the window yields.
+pub(super) struct Mismatch {
+    /// `sum (T - J) gx`, `sum (T - J) gy`.
+    pub(super) b: Vec2,
+    /// `sum |T - J|` (only when asked for, else 0).
+    pub(super) abs: f32,
+}
+
+impl Template {
+    /// Storage for one template, filled per point and level by [`Template::fill`]
+    /// (one instance serves a whole batch: no per-point zeroing of 12 KiB).
+    pub(super) fn empty() -> Self {
+        Template {
+            n: 0,
+            t: [[0.0; TPL]; MAX_WINDOW],
+            gx: [[0.0; TPL]; MAX_WINDOW],
+            gy: [[0.0; TPL]; MAX_WINDOW],
+            mask: [0.0; TPL],
+            g_inv: [0.0; 3],
+            patch: [[0.0; ROW]; 3],
+            src: [0; SRC],
+            rows: [[0.0; ROW]; 2],
+        }
+    }
+
+    /// Samples the window of side `n` centred on `c` and its gradients.
+    /// With `clamp`, a window hanging over the border repeats the edge pixels
+    /// (the centre must still be inside); without, it is out of bounds.
+    pub(super) fn fill(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        n: usize,
+        min_eig: f32,
+        clamp: bool,
+    ) -> Result<(), TemplateFault> {
+        let half = (n / 2) as f32;
+        let m = n + 2;
+        let (x, y) = (c.x - half - 1.0, c.y - half - 1.0);
+        let clamp = clamp && inside(image, c);
+        let Some(src) = SourceRows::new(image, x, y, m, m, clamp) else {
+            return Err(TemplateFault::OutOfBounds);
+        };
+        if n > MAX_WINDOW {
+            return Err(TemplateFault::OutOfBounds);
+        }
+        self.n = n;
+        for (k, v) in self.mask.iter_mut().enumerate() {
+            *v = if k < n { 1.0 } else { 0.0 };
+        }
+        // (patch chunks, window chunks) for n = 3..=31, odd.
+        let [gxx, gxy, gyy] = match (window::chunks(m), window::chunks(n)) {
+            (1, _) => self.sample::<1, 1>(image, &src),
+            (2, 1) => self.sample::<2, 1>(image, &src),
+            (2, _) => self.sample::<2, 2>(image, &src),
+            (3, 2) => self.sample::<3, 2>(image, &src),
+            (3, _) => self.sample::<3, 3>(image, &src),
+            (4, 3) => self.sample::<4, 3>(image, &src),
+            (4, _) => self.sample::<4, 4>(image, &src),
+            _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
+        };
+        let area = (n * n) as f32;
+        let half_diff = 0.5 * (gxx - gyy);
+        let lambda_min = 0.5 * (gxx + gyy) - libm::sqrtf(half_diff * half_diff + gxy * gxy);
+        let det = gxx * gyy - gxy * gxy;
+        let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
+        if !well_conditioned {
+            return Err(TemplateFault::LowEigenvalue);
+        }
+        self.g_inv = [gyy / det, -gxy / det, gxx / det];
+        Ok(())
+    }
+
+    /// Samples the `n + 2` square patch (`P` chunks wide) row by row into
+    /// the ring `self.patch`; once three rows are there, the template row
+    /// between them and its Scharr gradients (`C` chunks wide) follow.
+    /// Returns the sums `[gxx, gxy, gyy]` of `G`.
+    #[inline(always)]
+    fn sample<const P: usize, const C: usize>(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> [f32; 3] {
+        let Template {
+            n,
+            t,
+            gx,
+            gy,
+            mask,
+            patch: [r0, r1, r2],
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let mut sums = [[0.0f32; LANES]; 3];
+        let (mut h0, mut h1) = (top, bottom);
+        let need = P * LANES + 1;
+        let weights = [src.ax, src.ay];
+        window::horizontal::<P>(src.row(image, 0, need, buf), src.ax, h0);
+        let inside = src.inside_rows(image);
+        let (data, mut start, stride) = inside.unwrap_or((&[], 0, 0));
+        let outputs = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
+        let mut outputs = outputs.take(*n);
+        // Ring slots: the oldest, the middle and the newest patch row.
+        let (mut a, mut b, mut c) = (r0, r1, r2);
+        for i in 0..*n + 2 {
+            // Inside: the source rows are stride apart in the image buffer.
+            start = start.saturating_add(stride);
+            let next = match data.get(start..start.saturating_add(need)) {
+                Some(next) if inside.is_some() => next,
+                _ => src.row(image, i + 1, need, buf),
+            };
+            // The new row goes where the oldest was.
+            patch_row::<P>(next, weights, [h0, h1], a);
+            core::mem::swap(&mut h0, &mut h1);
+            (a, b, c) = (b, c, a);
+            if i >= 2
+                && let Some(((t, gx), gy)) = outputs.next()
+            {
+                gradient_row::<C>([&*a, &*b, &*c], mask, [t, gx, gy], &mut sums);
+            }
+        }
+        let [sxx, sxy, syy] = sums;
+        [
+            sxx.iter().sum::<f32>(),
+            sxy.iter().sum::<f32>(),
+            syy.iter().sum::<f32>(),
+        ]
+    }
+
+    /// One pass over the window centred on `c` in `image`: the right-hand
+    /// side `b` and, with `with_abs`, the absolute error; `None` when the
+    /// window is outside (with `clamp`, only when its centre is).
+    #[inline]
+    pub(super) fn mismatch(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+    ) -> Option<Mismatch> {
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let clamp = clamp && inside(image, c);
+        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        Some(match (window::chunks(n), with_abs) {
+            (1, false) => self.mismatch_in::<1, false>(image, &src),
+            (2, false) => self.mismatch_in::<2, false>(image, &src),
+            (3, false) => self.mismatch_in::<3, false>(image, &src),
+            (_, false) => self.mismatch_in::<4, false>(image, &src),
+            (1, true) => self.mismatch_in::<1, true>(image, &src),
+            (2, true) => self.mismatch_in::<2, true>(image, &src),
+            (3, true) => self.mismatch_in::<3, true>(image, &src),
+            (_, true) => self.mismatch_in::<4, true>(image, &src),
+        })
+    }
+
+    /// [`Template::mismatch`] for rows of `C` chunks. Eight lanes in local
+    /// arrays: the loop body is straight-line code over fixed-size arrays,
+    /// which the compiler turns into SIMD; each lane sums its own columns.
+    #[inline(always)]
+    fn mismatch_in<const C: usize, const ABS: bool>(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> Mismatch {
+        let mut sums = [[0.0f32; LANES]; 3];
+        let Template {
+            n,
+            t,
+            gx,
+            gy,
+            mask,
+            src: buf,
+            rows: [top, bottom],
+            ..
+        } = self;
+        let (mut h0, mut h1) = (top, bottom);
+        let need = C * LANES + 1;
+        let weights = [src.ax, src.ay];
+        window::horizontal::<C>(src.row(image, 0, need, buf), src.ax, h0);
+        let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
+        if let Some((data, mut start, stride)) = src.inside_rows(image) {
+            // Inside: the source rows are stride apart in the image buffer.
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                start = start.saturating_add(stride);
+                let next = match data.get(start..start.saturating_add(need)) {
+                    Some(next) => next,
+                    None => src.row(image, i + 1, need, buf),
+                };
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        } else {
+            for (i, ((t, gx), gy)) in rows.enumerate() {
+                let next = src.row(image, i + 1, need, buf);
+                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                core::mem::swap(&mut h0, &mut h1);
+            }
+        }
+        let [sx, sy, sa] = sums;
+        Mismatch {
+            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
+            abs: sa.iter().sum::<f32>(),
+        }
+    }
+
+    /// `G⁻¹ b`.
+    pub(super) fn solve(&self, b: &Vec2) -> Vec2 {
+        let [a, o, c] = self.g_inv;
+        Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
+    }
+}
+
+/// One patch row: the next source row `next` interpolated horizontally into
+/// `h1`, then blended with the previous one `h0` into `out` (out of line,
+/// like [`mismatch_row`]).
+#[inline(never)]
+fn patch_row<const P: usize>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
+    out: &mut Row,
+) {
+    window::horizontal_inline::<P>(next, ax, h1);
+    window::vertical::<P>(h0, h1, ay, out);
+}
+
+/// One template row from three patch rows: the template (centre row,
+/// shifted by one), the Scharr gradients masked to the window, and the
+/// products `gx², gx gy, gy²` per lane into `sums` (out of line, like
+/// [`mismatch_row`]).
+#[inline(never)]
+fn gradient_row<const C: usize>(
+    [p0, p1, p2]: [&Row; 3],
+    mask: &TplRow,
+    [t, gx, gy]: [&mut TplRow; 3],
+    sums: &mut [[f32; LANES]; 3],
+) {
+    let width = C * LANES;
+    // Separable Scharr: smooth [3 10 3] down the columns and difference
+    // across (gx), difference down the columns and smooth across (gy).
+    let (mut smooth, mut diff) = ([0.0f32; ROW], [0.0f32; ROW]);
+    for (((s, d), &a), (&b, &c)) in smooth
+        .iter_mut()
+        .zip(diff.iter_mut())
+        .zip(p0)
+        .zip(p1.iter().zip(p2))
+    {
+        *s = 3.0 * (a + c) + 10.0 * b;
+        *d = c - a;
+    }
+    let (Some((s0, _, s2)), Some((d0, d1, d2)), Some((_, centre, _))) =
+        (taps(&smooth), taps(&diff), taps(p1))
+    else {
+        return;
+    };
+    t.copy_from_slice(centre);
+    for ((g, &m), (&s0, &s2)) in gx.iter_mut().zip(mask).zip(s0.iter().zip(s2)).take(width) {
+        *g = (s2 - s0) * (m / 32.0);
+    }
+    let y_taps = d0.iter().zip(d1).zip(d2);
+    for ((g, &m), ((&d0, &d1), &d2)) in gy.iter_mut().zip(mask).zip(y_taps).take(width) {
+        *g = (3.0 * (d0 + d2) + 10.0 * d1) * (m / 32.0);
+    }
+    // G = sum [gx² gx·gy; gx·gy gy²], in lanes.
+    let [sxx, sxy, syy] = sums;
+    let (gx8, _) = gx.as_chunks::<LANES>();
+    let (gy8, _) = gy.as_chunks::<LANES>();
+    for (gx, gy) in gx8.iter().zip(gy8).take(C) {
+        let lanes = sxx.iter_mut().zip(sxy.iter_mut()).zip(syy.iter_mut());
+        for (((xx, xy), yy), (&gx, &gy)) in lanes.zip(gx.iter().zip(gy)) {
+            *xx += gx * gx;
+            *xy += gx * gy;
+            *yy += gy * gy;
+        }
+    }
+}
+
+/// One window row of [`Template::mismatch`]: interpolates the next source
+/// row `next` horizontally into `h1`; then with `d = T - J` and
+/// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|` per
+/// lane into `sums`. Kept out of line: inlined into the large caller, the
+/// compiler stops vectorising it.
+#[inline(never)]
+fn mismatch_row<const C: usize, const ABS: bool>(
+    next: &[u8],
+    [ax, ay]: [f32; 2],
+    [h0, h1]: [&mut Row; 2],
+    [t, gx, gy, mask]: [&TplRow; 4],
+    sums: &mut [[f32; LANES]; 3],
+) {
+    window::horizontal_inline::<C>(next, ax, h1);
+    let [sx, sy, sa] = sums;
+    let (t8, _) = t.as_chunks::<LANES>();
+    let (gx8, _) = gx.as_chunks::<LANES>();
+    let (gy8, _) = gy.as_chunks::<LANES>();
+    let (a8, _) = h0.as_chunks::<LANES>();
+    let (b8, _) = h1.as_chunks::<LANES>();
+    let (m8, _) = mask.as_chunks::<LANES>();
+    let chunks = t8.iter().zip(gx8).zip(gy8).zip(a8.iter().zip(b8)).zip(m8);
+    for ((((t, gx), gy), (a, b)), m) in chunks.take(C) {
+        let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
+        let pixels = t.iter().zip(gx).zip(gy).zip(a.iter().zip(b)).zip(m);
+        for (((x, y), s), ((((&t, &gx), &gy), (&a, &b)), &m)) in lanes.zip(pixels) {
+            let d = t - (a + ay * (b - a));
+            *x += d * gx;
+            *y += d * gy;
+            if ABS {
+                *s += d.abs() * m;
+            }
+        }
+    }
+}
+
+/// `c` lies inside the image (pixel centres `0..=width-1`).
+fn inside(image: &ImageView<'_>, c: Vec2) -> bool {
+    c.x >= 0.0
+        && c.y >= 0.0
+        && c.x <= (image.width() - 1) as f32
+        && c.y <= (image.height() - 1) as f32
+}
