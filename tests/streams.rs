@@ -1,7 +1,7 @@
 //! The sensor registry is total: every [`Stream`] has a way into the
 //! estimator (or is declared not taken yet), every sample of every stream
-//! ends in exactly one count of that stream, and the report lists every
-//! stream by its name.
+//! ends in exactly one count of that stream (that `report.json` lists every
+//! stream by its name is checked in `crates/host-sim/tests/report_streams.rs`).
 //!
 //! Adding a stream to `vslam_core::Stream` does not compile until
 //! [`entry`] below places it: the table says how its samples reach
