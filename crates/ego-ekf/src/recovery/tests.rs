@@ -1,0 +1,215 @@
+//! Unit tests of the parent module.
+use super::*;
+
+fn evidence<'a>(run: &'a GatedRun, flow: Option<FlowWitness>) -> Evidence<'a> {
+    Evidence {
+        filter_velocity: Vector2::new(0.6, 0.0),
+        filter_var: 1e-4,
+        wheel_speed: 0.3,
+        wheel_std: 0.02,
+        wheel_gate: 6.63,
+        grip: 0.95,
+        flow,
+        flow_gate: 9.21,
+        run,
+    }
+}
+
+fn steady_run(config: &RecoveryConfig, silence: bool) -> GatedRun {
+    let mut run = GatedRun::default();
+    run.push(config, -0.3, silence);
+    for k in 1..config.reset_after_gated {
+        // A slow drift inside the tolerance.
+        run.push(config, -0.3 - 0.001 * f32::from(k), false);
+    }
+    run
+}
+
+fn witness(vx: f32, std: f32) -> Option<FlowWitness> {
+    Some(FlowWitness {
+        t: Timestamp(0),
+        velocity: Vector2::new(vx, 0.0),
+        std,
+        reports: 1,
+    })
+}
+
+#[test]
+fn the_window_averages_recent_reports_only() {
+    let mut w = FlowWindow::new(200_000_000, 0.001);
+    assert_eq!(w.witness(Timestamp(0)), None);
+    // 0.1 m/s for a while, then 0.3 m/s: 10 ms apart, std 0.1 each.
+    for k in 0..100u64 {
+        let v = if k < 50 { 0.1 } else { 0.3 };
+        w.push(Timestamp(k * 10_000_000), Vector2::new(v, 0.0), 0.1);
+    }
+    let now = Timestamp(990_000_000);
+    let m = w.witness(now).unwrap();
+    // Only the last 100-200 ms: all at 0.3 m/s.
+    assert!((m.velocity.x - 0.3).abs() < 1e-5, "{m:?}");
+    assert!((10..=20).contains(&m.reports), "{m:?}");
+    assert!((m.std - 0.1 / f32::from(m.reports).sqrt()).abs() < 1e-5);
+    // Noise below the floor is not believed.
+    let mut f = FlowWindow::new(200_000_000, 0.05);
+    for k in 0..20u64 {
+        f.push(Timestamp(k * 10_000_000), Vector2::new(0.2, 0.0), 0.1);
+    }
+    assert_eq!(f.witness(Timestamp(200_000_000)).unwrap().std, 0.05);
+    // Bad noise is ignored.
+    f.push(Timestamp(210_000_000), Vector2::new(9.0, 0.0), f32::NAN);
+    assert_eq!(f.witness(Timestamp(210_000_000)).unwrap().velocity.x, 0.2);
+}
+
+#[test]
+fn flow_that_disagrees_with_the_filter_is_the_source() {
+    let c = RecoveryConfig::default();
+    let run = steady_run(&c, false);
+    let v = decide(&c, &evidence(&run, witness(0.3, 0.02)));
+    assert_eq!(v, Verdict::Reset(ResetSource::Flow));
+}
+
+#[test]
+fn noisy_flow_that_the_wheels_confirm_is_the_source() {
+    let c = RecoveryConfig::default();
+    let run = steady_run(&c, false);
+    // 0.3 m/s off the filter is within a 0.15 m/s flow's gate, but the
+    // wheels say the same as the flow.
+    let v = decide(&c, &evidence(&run, witness(0.32, 0.15)));
+    assert_eq!(v, Verdict::Reset(ResetSource::Flow));
+}
+
+#[test]
+fn a_vague_flow_mean_is_no_witness() {
+    // A lifted robot: the flow sees no floor, its reports average to a
+    // zero of 0.5 m/s std that the free-spinning wheels "agree" with.
+    let c = RecoveryConfig::default();
+    let run = steady_run(&c, false);
+    let v = decide(&c, &evidence(&run, witness(0.0, 0.5)));
+    assert_eq!(v, Verdict::NoTrustedSource);
+}
+
+#[test]
+fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
+    let c = RecoveryConfig::default();
+    let run = steady_run(&c, false);
+    let v = decide(&c, &evidence(&run, witness(0.6, 0.02)));
+    assert_eq!(v, Verdict::WheelsSlip);
+}
+
+#[test]
+fn without_flow_the_wheels_only_after_silence_on_high_grip() {
+    let c = RecoveryConfig::default();
+    let jump = steady_run(&c, false);
+    assert_eq!(decide(&c, &evidence(&jump, None)), Verdict::NoTrustedSource);
+    let silence = steady_run(&c, true);
+    assert_eq!(
+        decide(&c, &evidence(&silence, None)),
+        Verdict::Reset(ResetSource::Wheels)
+    );
+    let mut carpet = evidence(&silence, None);
+    carpet.grip = 0.7;
+    assert_eq!(decide(&c, &carpet), Verdict::NoTrustedSource);
+}
+
+#[test]
+fn an_unsteady_run_is_no_offset() {
+    let c = RecoveryConfig::default();
+    let mut run = GatedRun::default();
+    run.push(&c, -0.1, true);
+    for k in 1..c.reset_after_gated {
+        // The wheels keep speeding up against the IMU: spinning up.
+        run.push(&c, -0.1 - 0.03 * f32::from(k), false);
+    }
+    assert!(run.steady_len() < c.reset_after_gated);
+    assert_eq!(decide(&c, &evidence(&run, None)), Verdict::NoTrustedSource);
+    assert!(run.due(&c));
+}
+
+#[test]
+fn a_jump_back_towards_the_filter_is_a_trusted_onset() {
+    let c = RecoveryConfig::default();
+    let mut run = GatedRun::default();
+    run.push(&c, 0.4, false);
+    assert!(!run.trusted_onset());
+    run.push(&c, 0.15, false);
+    assert!(run.trusted_onset());
+    run.push(&c, 0.5, false);
+    assert!(!run.trusted_onset());
+}
+
+#[test]
+fn counts_every_verdict() {
+    let mut r = RecoveryCounts::default();
+    r.record(Timestamp(1), Verdict::Reset(ResetSource::Flow));
+    r.record(Timestamp(2), Verdict::Reset(ResetSource::Wheels));
+    r.record(Timestamp(3), Verdict::WheelsSlip);
+    r.record(Timestamp(4), Verdict::NoTrustedSource);
+    assert_eq!(r.resets(), 2);
+    assert_eq!((r.wheels_slip, r.no_trusted_source), (1, 1));
+    assert_eq!(r.last, Some((Timestamp(4), Verdict::NoTrustedSource)));
+    assert_eq!(Verdict::WheelsSlip.name(), "wheels_slip");
+}
+
+#[test]
+fn a_reset_sets_the_robot_velocity_and_decouples_it() {
+    use crate::state::{Quat, V};
+    let mut x = NominalState {
+        p_wb: Vec3::zeros(),
+        v_wb: Vec3::new(0.9, -0.2, 0.05),
+        q_wb: Quat::from_euler_angles(0.02, -0.01, 0.7),
+        accel_bias: Vec3::zeros(),
+        gyro_bias: Vec3::zeros(),
+        gravity: Vec3::new(0.0, 0.0, -9.81),
+        clone_p_wb: Vec3::zeros(),
+        clone_q_wb: Quat::identity(),
+        p_bl: Vec3::new(-0.05, 0.12, -0.04),
+        p_br: Vec3::new(-0.05, -0.12, -0.04),
+        q_rb: Quat::from_euler_angles(0.0, 0.01, 0.0),
+        radius_left: 0.035,
+        radius_right: 0.035,
+    };
+    let mut p = Covariance::identity() * 0.01;
+    p[(V, 0)] = 0.004;
+    p[(0, V)] = 0.004;
+    let gyro = Vec3::new(0.0, 0.0, 0.4);
+    let robot_velocity = |x: &NominalState| {
+        let v_b = x.q_wb.inverse() * x.v_wb;
+        x.q_rb * (v_b + gyro.cross(&x.p_b_robot()))
+    };
+    let before = robot_velocity(&x);
+    reset_velocity(&mut x, &mut p, &gyro, &Vector2::new(0.3, 0.01), 0.05);
+    let after = robot_velocity(&x);
+    assert!((after.x - 0.3).abs() < 1e-5 && (after.y - 0.01).abs() < 1e-5);
+    assert!((after.z - before.z).abs() < 1e-5, "{before} {after}");
+    assert_eq!(p[(V, 0)], 0.0);
+    assert_eq!(p[(0, V)], 0.0);
+    assert!((p[(V + 1, V + 1)] - 0.0025).abs() < 1e-9);
+    assert!(crate::covariance::is_positive_definite(&p));
+}
+
+#[test]
+fn a_run_after_silence_is_a_trusted_onset() {
+    let c = RecoveryConfig::default();
+    let t = |ms: u64| Timestamp(ms * 1_000_000);
+    let mut w = WheelWatch::default();
+    // Nothing fused yet: the first gated update follows silence.
+    w.gated(&c, t(0), 0.4);
+    assert!(w.run().trusted_onset() && w.run().len() == 1);
+    // Fused at a steady pace, then gated: no silence.
+    let silence_ms = c.silence_ns / 1_000_000;
+    for k in 1..=3 * silence_ms / 20 {
+        w.fused(&c, t(1000 + 20 * k));
+    }
+    assert!(w.run().is_empty());
+    let last = 1000 + 20 * (3 * silence_ms / 20);
+    w.gated(&c, t(last + 20), 0.4);
+    assert!(!w.run().trusted_onset());
+    // A long pause, one fused sample (fusing resumes), then gated: the
+    // first samples back count as after silence.
+    let back = last + 40 + 2 * silence_ms;
+    w.fused(&c, t(back));
+    w.gated(&c, t(back + 20), 0.4);
+    assert!(w.run().trusted_onset());
+    w.end_run();
+    assert!(w.run().is_empty());
+}
