@@ -3,36 +3,11 @@
 
 use core::fmt;
 
+pub use vslam_core::robot::ImuNoise;
 use vslam_core::sensors::FlowOptics;
 
 use crate::grip::GripParams;
 use crate::state::{Quat, Vec3};
-
-/// IMU noise densities and bias random walks (continuous time), as in a
-/// Kalibr / EuRoC `imu.yaml`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuNoise {
-    /// Accelerometer white noise density, m/s^2/sqrt(Hz).
-    pub accel_density: f32,
-    /// Gyroscope white noise density, rad/s/sqrt(Hz).
-    pub gyro_density: f32,
-    /// Accelerometer bias random walk, m/s^3/sqrt(Hz).
-    pub accel_random_walk: f32,
-    /// Gyroscope bias random walk, rad/s^2/sqrt(Hz).
-    pub gyro_random_walk: f32,
-}
-
-impl Default for ImuNoise {
-    /// A consumer MEMS IMU (BMI088 / ICM-42688 class).
-    fn default() -> Self {
-        ImuNoise {
-            accel_density: 2.0e-3,
-            gyro_density: 2.0e-4,
-            accel_random_walk: 3.0e-4,
-            gyro_random_walk: 2.0e-5,
-        }
-    }
-}
 
 /// The robot's mechanical prior: where the wheels touch the floor seen from
 /// the IMU, how the IMU is turned in the chassis, the wheel radii, and how

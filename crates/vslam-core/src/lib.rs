@@ -5,7 +5,8 @@
 //! - the shared vocabulary every crate speaks: [`time`] (integer nanoseconds),
 //!   [`geometry`] (frames and `T_BS` mountings), [`sensors`] (raw and validated
 //!   samples, the sensor traits drivers implement), [`reject`] (why a sample was
-//!   not fused, and the counts);
+//!   not fused, and the counts), [`robot`] (the robot description: wheels,
+//!   mountings, sensor noise);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
 //!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
 //!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
@@ -37,9 +38,11 @@ pub mod lk;
 pub mod pose;
 pub mod pyramid;
 pub mod reject;
+pub mod robot;
 pub mod scale;
 pub mod sensors;
 pub mod time;
 
 pub use reject::{Reject, SampleCounts};
+pub use robot::{RobotDescription, RobotError};
 pub use time::{SampleClock, Timestamp};
