@@ -4,7 +4,8 @@
 use core::fmt;
 
 pub use vslam_core::robot::ImuNoise;
-use vslam_core::sensors::FlowOptics;
+use vslam_core::robot::{FlowDescription, RobotDescription, RobotError};
+use vslam_core::sensors::{FlowOptics, FlowOpticsError};
 
 use crate::grip::GripParams;
 use crate::state::{Quat, Vec3};
@@ -50,6 +51,28 @@ impl Default for RobotPrior {
             radius_random_walk: 1.0e-6,
             contact_random_walk: 1.0e-6,
             rotation_random_walk: 1.0e-6,
+        }
+    }
+}
+
+impl RobotPrior {
+    /// The prior of a described robot, seen from its IMU: the contact points
+    /// `(0, ±track / 2, 0)` of the body frame (the kinematic track, see
+    /// [`vslam_core::robot::Wheels::kinematic_track`]) in the IMU frame,
+    /// `p_I = R_BS^T (p_B - t_BS)`; `q_rb = R_BS` (IMU vectors into the
+    /// robot frame); the mean wheel radius; the uncertainties of
+    /// [`RobotPrior::default`]. The description is assumed valid
+    /// ([`RobotDescription::validate`]).
+    pub fn from_robot(robot: &RobotDescription) -> Self {
+        let mount = &robot.imu.mount;
+        let half = 0.5 * robot.wheels.kinematic_track();
+        let in_imu = |y: f32| mount.r_bs().inverse() * (Vec3::new(0.0, y, 0.0) - mount.t_bs());
+        RobotPrior {
+            p_bl: in_imu(half),
+            p_br: in_imu(-half),
+            q_rb: Quat::from_rotation_matrix(mount.r_bs()),
+            radius: robot.wheels.mean_radius(),
+            ..RobotPrior::default()
         }
     }
 }
@@ -173,6 +196,24 @@ impl FlowConfig {
             reset_after_gated: 25,
             reset_max_speed: 2.0,
         }
+    }
+}
+
+impl FlowConfig {
+    /// The configuration of a described flow sensor: its optics, mounting and
+    /// noise, the other settings of [`FlowConfig::new`].
+    pub fn from_robot(flow: &FlowDescription) -> Result<Self, RobotError> {
+        let optics = FlowOptics::new(flow.counts_per_radian, flow.height, flow.mount).map_err(
+            |e| match e {
+                FlowOpticsError::BadResolution => RobotError::BadFlowResolution,
+                FlowOpticsError::BadHeight => RobotError::FlowBelowFloor,
+            },
+        )?;
+        Ok(FlowConfig {
+            base_std: flow.base_std,
+            relative_std: flow.relative_std,
+            ..FlowConfig::new(optics)
+        })
     }
 }
 
@@ -307,6 +348,26 @@ impl Default for FilterConfig {
             grip: GripParams::default(),
             gravity: crate::state::STANDARD_GRAVITY,
         }
+    }
+}
+
+impl FilterConfig {
+    /// The filter's configuration for a described robot: its IMU noise, its
+    /// robot prior ([`RobotPrior::from_robot`]) and its flow sensor
+    /// ([`FlowConfig::from_robot`]); every other setting of
+    /// [`FilterConfig::default`]. Refuses an invalid description.
+    pub fn from_robot(robot: &RobotDescription) -> Result<Self, RobotError> {
+        robot.validate()?;
+        Ok(FilterConfig {
+            imu_noise: robot.imu.noise,
+            robot: RobotPrior::from_robot(robot),
+            flow: robot
+                .flow
+                .as_ref()
+                .map(FlowConfig::from_robot)
+                .transpose()?,
+            ..FilterConfig::default()
+        })
     }
 }
 
