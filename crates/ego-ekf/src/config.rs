@@ -1,5 +1,5 @@
-//! Filter configuration: IMU noise densities, time limits, the robot prior,
-//! the still detector and the flow sensor. Checked once by [`FilterConfig::check`].
+//! Filter configuration: IMU noise densities and limits, one struct per
+//! aiding sensor (wheels, flow), the robot prior, the still detector. Checked once by [`FilterConfig::check`].
 
 use core::fmt;
 
@@ -157,7 +157,36 @@ impl Default for InitConfig {
     }
 }
 
-/// The optical-flow sensor: optics, noise model and gate.
+/// The wheel encoders' timing and how long a gated run lasts before the
+/// filter re-examines its velocity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelConfig {
+    /// Largest accepted step between wheel samples, ns.
+    pub max_dt_ns: u64,
+    /// Largest distance, ns, between a wheel sample's time and the filter's
+    /// (latest IMU) time: an older sample measured a velocity the state no
+    /// longer has ([`vslam_core::Reject::OutOfOrder`]), a newer one a
+    /// velocity the state has not reached ([`vslam_core::Reject::NotReady`]).
+    pub max_age_ns: u64,
+    /// Consecutive gated forward wheel updates after which the filter
+    /// re-examines its own velocity ([`crate::recovery`]; 0: never);
+    /// re-examined again every as many gated updates while the run lasts.
+    pub reexamine_after_gated: u16,
+}
+
+impl Default for WheelConfig {
+    /// Steps up to 0.2 s, samples within 50 ms of the filter's time,
+    /// re-examination after 25 gated updates (0.5 s at 50 Hz).
+    fn default() -> Self {
+        WheelConfig {
+            max_dt_ns: 200_000_000,
+            max_age_ns: 50_000_000,
+            reexamine_after_gated: 25,
+        }
+    }
+}
+
+/// The optical-flow sensor: optics, noise model, gate and timing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowConfig {
     /// Resolution, height and mounting `T_BS` in the robot frame.
@@ -174,9 +203,14 @@ pub struct FlowConfig {
     pub gate: f32,
     /// Largest step between flow reports, ns.
     pub max_dt_ns: u64,
+    /// Oldest flow report, ns, that still counts as a recent witness; a
+    /// report this far ahead of the filter's time is not fused yet.
+    pub max_age_ns: u64,
+    /// Window, ns, over which the flow's reports are averaged into a witness.
+    pub window_ns: u64,
     /// Consecutive gated reports of valid quality after which the filter
     /// stops trusting its own velocity and resets it to the flow's (0: never).
-    pub reset_after_gated: u16,
+    pub velocity_reset_after_gated: u16,
     /// Fastest flow-measured speed, m/s, the velocity may be reset to; a
     /// report claiming more is no ground truth to restart from.
     pub reset_max_speed: f32,
@@ -193,7 +227,9 @@ impl FlowConfig {
             shutter_good: 0x0400,
             gate: 9.21,
             max_dt_ns: 100_000_000,
-            reset_after_gated: 25,
+            max_age_ns: 200_000_000,
+            window_ns: 250_000_000,
+            velocity_reset_after_gated: 25,
             reset_max_speed: 2.0,
         }
     }
@@ -220,14 +256,6 @@ impl FlowConfig {
 /// How the filter gets out of a wheel lockout (see [`crate::recovery`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RecoveryConfig {
-    /// Consecutive gated forward wheel updates after which the filter
-    /// re-examines its own velocity (0: never); re-examined again every as
-    /// many gated updates while the run lasts.
-    pub reset_after_gated: u16,
-    /// Oldest flow report, ns, that still counts as a recent witness.
-    pub flow_max_age_ns: u64,
-    /// Window, ns, over which the flow's reports are averaged into a witness.
-    pub flow_window_ns: u64,
     /// Lowest grip at which the wheels themselves may be the reset source.
     pub wheel_min_grip: f32,
     /// Largest change of the forward wheel innovation, m/s, within one steady
@@ -246,15 +274,11 @@ pub struct RecoveryConfig {
 }
 
 impl Default for RecoveryConfig {
-    /// Re-examine after 25 gated updates (0.5 s at 50 Hz), flow younger than
-    /// 0.2 s averaged over 0.25 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
+    /// Wheels trusted on floors of grip 0.85 and more (wood, tile),
     /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
     /// only when its mean is known to 0.2 m/s.
     fn default() -> Self {
         RecoveryConfig {
-            reset_after_gated: 25,
-            flow_max_age_ns: 200_000_000,
-            flow_window_ns: 250_000_000,
             wheel_min_grip: 0.85,
             steady_tolerance: 0.05,
             silence_ns: 500_000_000,
@@ -305,13 +329,8 @@ pub struct FilterConfig {
     pub imu_gyro_max: f32,
     /// Largest plausible specific force, m/s^2; larger is [`vslam_core::Reject::OutOfRange`].
     pub imu_accel_max: f32,
-    /// Largest accepted step between wheel samples, ns.
-    pub wheel_max_dt_ns: u64,
-    /// Largest distance, ns, between a wheel sample's time and the filter's
-    /// (latest IMU) time: an older sample measured a velocity the state no
-    /// longer has ([`vslam_core::Reject::OutOfOrder`]), a newer one a
-    /// velocity the state has not reached ([`vslam_core::Reject::NotReady`]).
-    pub wheel_max_age_ns: u64,
+    /// The wheel encoders.
+    pub wheel: WheelConfig,
     /// Getting out of a wheel lockout.
     pub recovery: RecoveryConfig,
     /// Bridging an IMU gap.
@@ -337,8 +356,7 @@ impl Default for FilterConfig {
             imu_max_dt_ns: 20_000_000,
             imu_gyro_max: 35.0,
             imu_accel_max: 160.0,
-            wheel_max_dt_ns: 200_000_000,
-            wheel_max_age_ns: 50_000_000,
+            wheel: WheelConfig::default(),
             recovery: RecoveryConfig::default(),
             gap: GapConfig::default(),
             robot: RobotPrior::default(),
@@ -457,8 +475,8 @@ impl FilterConfig {
             return Err(ConfigError::BadGeometry);
         }
         if self.imu_max_dt_ns == 0
-            || self.wheel_max_dt_ns == 0
-            || self.wheel_max_age_ns == 0
+            || self.wheel.max_dt_ns == 0
+            || self.wheel.max_age_ns == 0
             || i.samples == 0
             || z.still_samples == 0
             || z.every == 0

@@ -181,14 +181,14 @@ impl EgoEkf {
             last_step: None,
             still: StillDetector::new(),
             wheel: WheelFusion::new(
-                config.wheel_max_dt_ns,
-                config.wheel_max_age_ns,
+                config.wheel.max_dt_ns,
+                config.wheel.max_age_ns,
                 config.zupt.max_wheel_rate,
             ),
             flow: FlowFusion::new(
                 config.flow.map_or(1, |f| f.max_dt_ns),
-                config.recovery.flow_max_age_ns,
-                config.recovery.flow_window_ns,
+                config.flow.map_or(1, |f| f.max_age_ns),
+                config.flow.map_or(1, |f| f.window_ns),
                 config.flow.map_or(0.0, |f| f.base_std),
             ),
             recovery: RecoveryCounts::default(),
@@ -384,12 +384,12 @@ impl EgoEkf {
     /// Moving means a mean speed above three of its standard deviations
     /// and above 3 cm/s.
     fn flow_sees_motion(&self, t: Timestamp) -> bool {
-        if self.config.flow.is_none() {
+        let Some(flow) = self.config.flow else {
             return false;
-        }
+        };
         let r = &self.config.recovery;
         self.flow.witness(t).is_some_and(|w| {
-            let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= r.flow_max_age_ns;
+            let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= flow.max_age_ns;
             let speed = w.velocity.norm();
             recent && w.std <= r.flow_witness_max_std && speed > 0.03_f32.max(3.0 * w.std)
         })
@@ -449,7 +449,7 @@ impl EgoEkf {
         );
         if let Ok(inn) = out.as_mut()
             && inn.gated
-            && self.wheel.gated_run().due(&self.config.recovery)
+            && self.wheel.gated_run().due(&self.config.wheel)
         {
             let verdict = self.re_examine(rates, inn);
             inn.recovery = Some(verdict);
@@ -462,12 +462,12 @@ impl EgoEkf {
     /// The flow's forward speed at `t`, if it is recent and precise (the
     /// wheels are checked against it while the IMU is silent).
     fn speed_witness(&self, t: Timestamp) -> Option<SpeedWitness> {
-        self.config.flow?;
+        let flow = self.config.flow?;
         let r = &self.config.recovery;
         self.flow
             .witness(t)
             .filter(|w| {
-                t.as_nanos().abs_diff(w.t.as_nanos()) <= r.flow_max_age_ns
+                t.as_nanos().abs_diff(w.t.as_nanos()) <= flow.max_age_ns
                     && w.std <= r.flow_witness_max_std
             })
             .map(|w| SpeedWitness {
@@ -482,7 +482,7 @@ impl EgoEkf {
         let gyro = self.angular_velocity();
         let v = self.robot_velocity();
         let flow_config = self.config.flow;
-        let max_age = self.config.recovery.flow_max_age_ns;
+        let max_age = flow_config.map_or(0, |f| f.max_age_ns);
         let flow = self.flow.witness(rates.t).filter(|w| {
             flow_config.is_some() && rates.t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age
         });
@@ -499,7 +499,7 @@ impl EgoEkf {
             flow_gate: flow_config.map_or(f32::INFINITY, |f| f.gate),
             run: &run,
         };
-        let verdict = decide(&self.config.recovery, &evidence);
+        let verdict = decide(&self.config.recovery, &self.config.wheel, &evidence);
         let reset = match (verdict, flow) {
             (Verdict::Reset(ResetSource::Flow), Some(f)) => {
                 Some((confirmed_flow(&f, inn.speed, &self.grip), f.std))
@@ -520,7 +520,7 @@ impl EgoEkf {
     /// Fuses one optical-flow report at the filter's time; see
     /// [`crate::flow`]. Without a configured flow sensor, or before the
     /// filter starts, every report is [`Reject::NotReady`]; so is one more
-    /// than [`crate::config::RecoveryConfig::flow_max_age_ns`] ahead of the
+    /// than [`crate::config::FlowConfig::max_age_ns`] ahead of the
     /// filter's time (the IMU silent: the report only closes its interval
     /// and witnesses the speed for the gap's wheels), and one that far
     /// behind is [`Reject::OutOfOrder`].

@@ -46,7 +46,7 @@ pub mod zupt;
 
 pub use config::{
     ConfigError, FilterConfig, FlowConfig, GapConfig, ImuNoise, InitConfig, RecoveryConfig,
-    RobotPrior, ZuptConfig,
+    RobotPrior, WheelConfig, ZuptConfig,
 };
 pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};
 pub use flow::FlowFused;

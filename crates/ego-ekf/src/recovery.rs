@@ -8,7 +8,7 @@
 //! IMU glitch, a bad start) and every later update is refused: a lockout. As
 //! PX4 EKF2 resets its velocity after a fusion timeout, from the best source
 //! it has, the filter re-examines its velocity after
-//! [`RecoveryConfig::reset_after_gated`] gated updates in a row and asks the
+//! [`WheelConfig::reexamine_after_gated`] gated updates in a row and asks the
 //! most trusted witness:
 //!
 //! 1. a recent flow report of valid quality ([`FlowWitness`]): if the flow
@@ -43,7 +43,7 @@
 use nalgebra::Vector2;
 use vslam_core::Timestamp;
 
-use crate::config::RecoveryConfig;
+use crate::config::{RecoveryConfig, WheelConfig};
 
 /// Where a reset velocity came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -262,10 +262,10 @@ impl GatedRun {
     }
 
     /// Whether the run has reached a multiple of the re-examination length.
-    pub fn due(&self, config: &RecoveryConfig) -> bool {
-        config.reset_after_gated > 0
+    pub fn due(&self, wheel: &WheelConfig) -> bool {
+        wheel.reexamine_after_gated > 0
             && self.len > 0
-            && self.len.is_multiple_of(config.reset_after_gated)
+            && self.len.is_multiple_of(wheel.reexamine_after_gated)
     }
 }
 
@@ -293,7 +293,7 @@ pub struct Evidence<'a> {
 }
 
 /// The verdict for `evidence`; see the module documentation.
-pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
+pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<'_>) -> Verdict {
     let e = evidence;
     // A vague flow mean (the sensor saw no floor) is no witness.
     let flow = e.flow.filter(|f| f.std <= config.flow_witness_max_std);
@@ -312,7 +312,7 @@ pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
     let run = e.run;
     if e.grip >= config.wheel_min_grip
         && run.trusted_onset
-        && run.steady_len >= config.reset_after_gated
+        && run.steady_len >= wheel.reexamine_after_gated
         && e.wheel_speed.is_finite()
     {
         return Verdict::Reset(ResetSource::Wheels);
@@ -375,7 +375,7 @@ mod tests {
     fn steady_run(config: &RecoveryConfig, silence: bool) -> GatedRun {
         let mut run = GatedRun::default();
         run.push(config, -0.3, silence);
-        for k in 1..config.reset_after_gated {
+        for k in 1..WheelConfig::default().reexamine_after_gated {
             // A slow drift inside the tolerance.
             run.push(config, -0.3 - 0.001 * f32::from(k), false);
         }
@@ -420,18 +420,20 @@ mod tests {
     #[test]
     fn flow_that_disagrees_with_the_filter_is_the_source() {
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let run = steady_run(&c, false);
-        let v = decide(&c, &evidence(&run, witness(0.3, 0.02)));
+        let v = decide(&c, &w, &evidence(&run, witness(0.3, 0.02)));
         assert_eq!(v, Verdict::Reset(ResetSource::Flow));
     }
 
     #[test]
     fn noisy_flow_that_the_wheels_confirm_is_the_source() {
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let run = steady_run(&c, false);
         // 0.3 m/s off the filter is within a 0.15 m/s flow's gate, but the
         // wheels say the same as the flow.
-        let v = decide(&c, &evidence(&run, witness(0.32, 0.15)));
+        let v = decide(&c, &w, &evidence(&run, witness(0.32, 0.15)));
         assert_eq!(v, Verdict::Reset(ResetSource::Flow));
     }
 
@@ -440,46 +442,56 @@ mod tests {
         // A lifted robot: the flow sees no floor, its reports average to a
         // zero of 0.5 m/s std that the free-spinning wheels "agree" with.
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let run = steady_run(&c, false);
-        let v = decide(&c, &evidence(&run, witness(0.0, 0.5)));
+        let v = decide(&c, &w, &evidence(&run, witness(0.0, 0.5)));
         assert_eq!(v, Verdict::NoTrustedSource);
     }
 
     #[test]
     fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let run = steady_run(&c, false);
-        let v = decide(&c, &evidence(&run, witness(0.6, 0.02)));
+        let v = decide(&c, &w, &evidence(&run, witness(0.6, 0.02)));
         assert_eq!(v, Verdict::WheelsSlip);
     }
 
     #[test]
     fn without_flow_the_wheels_only_after_silence_on_high_grip() {
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let jump = steady_run(&c, false);
-        assert_eq!(decide(&c, &evidence(&jump, None)), Verdict::NoTrustedSource);
+        assert_eq!(
+            decide(&c, &w, &evidence(&jump, None)),
+            Verdict::NoTrustedSource
+        );
         let silence = steady_run(&c, true);
         assert_eq!(
-            decide(&c, &evidence(&silence, None)),
+            decide(&c, &w, &evidence(&silence, None)),
             Verdict::Reset(ResetSource::Wheels)
         );
         let mut carpet = evidence(&silence, None);
         carpet.grip = 0.7;
-        assert_eq!(decide(&c, &carpet), Verdict::NoTrustedSource);
+        assert_eq!(decide(&c, &w, &carpet), Verdict::NoTrustedSource);
     }
 
     #[test]
     fn an_unsteady_run_is_no_offset() {
         let c = RecoveryConfig::default();
+        let w = WheelConfig::default();
         let mut run = GatedRun::default();
         run.push(&c, -0.1, true);
-        for k in 1..c.reset_after_gated {
+        for k in 1..w.reexamine_after_gated {
             // The wheels keep speeding up against the IMU: spinning up.
             run.push(&c, -0.1 - 0.03 * f32::from(k), false);
         }
-        assert!(run.steady_len() < c.reset_after_gated);
-        assert_eq!(decide(&c, &evidence(&run, None)), Verdict::NoTrustedSource);
-        assert!(run.due(&c));
+        assert!(run.steady_len() < w.reexamine_after_gated);
+        assert_eq!(
+            decide(&c, &w, &evidence(&run, None)),
+            Verdict::NoTrustedSource
+        );
+        assert!(run.due(&w));
     }
 
     #[test]

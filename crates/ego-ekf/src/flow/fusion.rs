@@ -20,7 +20,7 @@
 //! A filter whose velocity has run away gates every flow and wheel
 //! measurement from then on and never recovers (a lockout). As PX4 EKF2
 //! resets its velocity to optical flow after a fusion timeout, a run of
-//! [`FlowConfig::reset_after_gated`] consecutive gated reports of valid
+//! [`FlowConfig::velocity_reset_after_gated`] consecutive gated reports of valid
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
 //! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
 //! reported ([`FlowFused::reset`]).
@@ -173,8 +173,8 @@ impl FlowFusion {
             }
             Err(Reject::Gated) => {
                 self.gated_run = self.gated_run.saturating_add(1);
-                if config.reset_after_gated == 0
-                    || self.gated_run < config.reset_after_gated
+                if config.velocity_reset_after_gated == 0
+                    || self.gated_run < config.velocity_reset_after_gated
                     || !plausible
                 {
                     return Err(Reject::Gated);
