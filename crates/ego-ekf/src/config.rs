@@ -459,7 +459,10 @@ impl FilterConfig {
         let flow_noise = self
             .flow
             .map_or([1.0; 3], |f| [f.base_std, f.relative_std, f.gate]);
-        if self.flow.is_some_and(|f| f.max_dt_ns == 0) {
+        if self
+            .flow
+            .is_some_and(|f| f.max_dt_ns == 0 || f.max_age_ns == 0 || f.window_ns == 0)
+        {
             return Err(ConfigError::BadLimit);
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
@@ -484,5 +487,33 @@ impl FilterConfig {
             return Err(ConfigError::BadLimit);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vslam_core::geometry::Extrinsics;
+
+    #[test]
+    fn each_sensor_config_refuses_a_zero_time_limit() {
+        let optics = FlowOptics::new(48.8, 0.03, Extrinsics::identity()).unwrap();
+        let ok = FilterConfig {
+            flow: Some(FlowConfig::new(optics)),
+            ..FilterConfig::default()
+        };
+        assert_eq!(ok.check(), Ok(()));
+        let zero: [&dyn Fn(&mut FilterConfig); 5] = [
+            &|c| c.wheel.max_dt_ns = 0,
+            &|c| c.wheel.max_age_ns = 0,
+            &|c| c.flow.as_mut().unwrap().max_dt_ns = 0,
+            &|c| c.flow.as_mut().unwrap().max_age_ns = 0,
+            &|c| c.flow.as_mut().unwrap().window_ns = 0,
+        ];
+        for edit in zero {
+            let mut c = ok;
+            edit(&mut c);
+            assert_eq!(c.check(), Err(ConfigError::BadLimit));
+        }
     }
 }
