@@ -143,13 +143,18 @@ pub struct FlowModel {
 }
 
 impl FlowModel {
-    /// A PAA5100JE 30 mm above the floor, 10 cm ahead of the axle, looking down
+    /// The robot-vacuum preset's flow sensor
+    /// ([`traction::vslam_core::robot::FlowDescription::robot_vacuum`]): a
+    /// PAA5100JE 30 mm above the floor, 10 cm ahead of the axle, looking down
     /// (sensor x = body x, sensor y = body -y, sensor z = body -z).
     pub fn paa5100() -> Self {
+        let flow = traction::vslam_core::robot::FlowDescription::robot_vacuum();
+        let d = super::preset::decimal;
+        let t = flow.mount.t_bs();
         FlowModel {
             rate_hz: 100.0,
-            t_bs: [0.10, 0.0, 0.03],
-            counts_per_radian: 48.8,
+            t_bs: [d(t.x), d(t.y), d(t.z)],
+            counts_per_radian: d(flow.counts_per_radian),
             scale_noise: 0.02,
         }
     }
