@@ -12,6 +12,41 @@
 //! [`RobotError`]; [`RobotDescription::robot_vacuum`] is a typical robot
 //! vacuum (35 mm wheels, 230 mm track, 14-bit encoders, a BMI088-class IMU,
 //! a PAA5100JE flow sensor 30 mm above the floor, an upward camera).
+//!
+//! A new robot is one literal:
+//!
+//! ```
+//! use vslam_core::geometry::{Extrinsics, Rot3, Vec3};
+//! use vslam_core::robot::{ImuDescription, ImuNoise, RobotDescription, RobotError, Wheels};
+//!
+//! let robot = RobotDescription {
+//!     wheels: Wheels {
+//!         radius_left: 0.05,
+//!         radius_right: 0.05,
+//!         track: 0.30,
+//!         track_factor: 1.0,
+//!         counts_per_revolution: 4096,
+//!         max_rim_speed: 2.0,
+//!         path_relative_std: 0.02,
+//!     },
+//!     imu: ImuDescription {
+//!         // 5 cm ahead of the axle, 8 cm up, turned 90 degrees about z.
+//!         mount: Extrinsics::new(
+//!             Rot3::from_axis_angle(&Vec3::z_axis(), core::f32::consts::FRAC_PI_2),
+//!             Vec3::new(0.05, 0.0, 0.08),
+//!         )
+//!         .unwrap(),
+//!         noise: ImuNoise::default(),
+//!     },
+//!     flow: None,
+//!     camera: None,
+//! };
+//! assert_eq!(robot.validate(), Ok(()));
+//!
+//! let mut broken = robot;
+//! broken.wheels.radius_right = 0.0;
+//! assert_eq!(broken.validate(), Err(RobotError::BadWheelRadius));
+//! ```
 
 use core::fmt;
 
