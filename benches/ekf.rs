@@ -10,9 +10,9 @@
 //! `iter_batched_ref`), made just before its batch of [`BATCH`] calls: the
 //! copies (6.3 KB each) are in the cache, as a filter that runs every 4 ms
 //! is. With criterion's `SmallInput` a batch holds a tenth of a sample's
-//! iterations (megabytes of copies), so every call first fetched its
-//! filter from memory beyond the core's caches (and by value, moved it in and out): that
-//! measured the memory, about 0.6 µs per call here, not the filter. The
+//! iterations (megabytes of copies), so every call would first fetch its
+//! filter from memory beyond the core's caches (and by value, move it in and out): that
+//! measures the memory, about 0.6 µs per call here, not the filter. The
 //! `harness` bench times an empty routine on the same batches.
 #![allow(missing_docs)]
 

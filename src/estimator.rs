@@ -30,7 +30,7 @@ use heapless::Deque;
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, WheelTicks};
-use vslam_core::{Reject, RobotError, SampleCounts, Timestamp};
+use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 /// Samples the ordering buffer holds.
@@ -109,28 +109,22 @@ pub enum Processed {
     },
 }
 
-/// Per-stream tallies: every sample offered ends in exactly one count.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct StreamCounts {
-    /// IMU samples.
-    pub imu: SampleCounts,
-    /// Wheel count samples.
-    pub wheel: SampleCounts,
-    /// Flow reports.
-    pub flow: SampleCounts,
-    /// Segmentation maps.
-    pub segmentation: SampleCounts,
-}
+impl Processed {
+    /// The stream of the processed sample.
+    pub const fn stream(&self) -> Stream {
+        match self {
+            Processed::Imu { .. } => Stream::Imu,
+            Processed::Wheel { .. } => Stream::Wheel,
+            Processed::Flow { .. } => Stream::Flow,
+        }
+    }
 
-/// One of the buffered sample streams.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SampleStream {
-    /// IMU samples.
-    Imu,
-    /// Wheel counts.
-    Wheel,
-    /// Flow reports.
-    Flow,
+    /// The sample's time stamp.
+    pub const fn t(&self) -> Timestamp {
+        match self {
+            Processed::Imu { t, .. } | Processed::Wheel { t, .. } | Processed::Flow { t, .. } => *t,
+        }
+    }
 }
 
 /// The whole estimator.
@@ -162,7 +156,7 @@ impl<'b> Estimator<'b> {
             frontend,
             reorder: Reorder::new(config.reorder_window_ns),
             pending: Deque::new(),
-            counts: StreamCounts::default(),
+            counts: StreamCounts::zero(),
             ended: false,
         })
     }
@@ -202,12 +196,8 @@ impl<'b> Estimator<'b> {
     /// bus error, a parity or product-id check): the driver's error, turned
     /// into its reason, lands in the stream's tally like a rejected sample,
     /// so the counts hold every read. The state is not touched.
-    pub fn reject_read(&mut self, stream: SampleStream, reason: Reject) {
-        match stream {
-            SampleStream::Imu => self.counts.imu.rejected_one(reason),
-            SampleStream::Wheel => self.counts.wheel.rejected_one(reason),
-            SampleStream::Flow => self.counts.flow.rejected_one(reason),
-        }
+    pub fn reject_read(&mut self, stream: Stream, reason: Reject) {
+        self.counts[stream].rejected_one(reason);
     }
 
     /// Processes the next sample whose ordering window has passed (all of
@@ -247,6 +237,8 @@ impl<'b> Estimator<'b> {
     ) -> Result<Option<FrameDecision>, Reject> {
         while self.poll_until(t).is_some() {}
         let Some(frontend) = self.frontend.as_mut() else {
+            // No camera path fitted: the frame is counted, not lost.
+            self.counts[Stream::Camera].rejected_one(Reject::NotReady);
             return Err(Reject::NotReady);
         };
         match frontend.process(t, image)? {
@@ -271,7 +263,7 @@ impl<'b> Estimator<'b> {
                 Err(MapError::Rejected(r)) => Err(r),
             },
         };
-        self.counts.segmentation.record(outcome);
+        self.counts[Stream::Segmentation].record(outcome);
         outcome
     }
 
@@ -292,29 +284,21 @@ impl<'b> Estimator<'b> {
     }
 
     fn reject(&mut self, event: Event, reason: Reject) -> Processed {
+        self.counts[event.stream()].rejected_one(reason);
         match event {
-            Event::Imu(s) => {
-                self.counts.imu.rejected_one(reason);
-                Processed::Imu {
-                    t: s.t,
-                    outcome: Err(reason),
-                    jolt: None,
-                }
-            }
-            Event::Wheel(s) => {
-                self.counts.wheel.rejected_one(reason);
-                Processed::Wheel {
-                    t: s.t,
-                    outcome: Err(reason),
-                }
-            }
-            Event::Flow(s) => {
-                self.counts.flow.rejected_one(reason);
-                Processed::Flow {
-                    t: s.t,
-                    outcome: Err(reason),
-                }
-            }
+            Event::Imu(s) => Processed::Imu {
+                t: s.t,
+                outcome: Err(reason),
+                jolt: None,
+            },
+            Event::Wheel(s) => Processed::Wheel {
+                t: s.t,
+                outcome: Err(reason),
+            },
+            Event::Flow(s) => Processed::Flow {
+                t: s.t,
+                outcome: Err(reason),
+            },
         }
     }
 
@@ -344,7 +328,7 @@ impl<'b> Estimator<'b> {
                 .flatten();
         }
         let outcome = outcome.map(|(_, step)| step);
-        self.counts.imu.record(outcome.map(|_| ()));
+        self.counts[Stream::Imu].record(outcome.map(|_| ()));
         Processed::Imu {
             t: raw.t,
             outcome,
@@ -370,7 +354,7 @@ impl<'b> Estimator<'b> {
             }
         };
         // A gated forward part is a gated sample, even though lateral and vertical were fused.
-        self.counts.wheel.record(match &outcome {
+        self.counts[Stream::Wheel].record(match &outcome {
             Ok(inn) if inn.gated => Err(Reject::Gated),
             Ok(_) => Ok(()),
             Err(r) => Err(*r),
@@ -384,7 +368,7 @@ impl<'b> Estimator<'b> {
     fn process_flow(&mut self, s: &FlowSample) -> Processed {
         let _ = self.scale.push_flow(s);
         let outcome = self.ekf.fuse_flow(s).map(|_| ());
-        self.counts.flow.record(outcome);
+        self.counts[Stream::Flow].record(outcome);
         Processed::Flow { t: s.t, outcome }
     }
 
@@ -418,12 +402,18 @@ impl<'b> Estimator<'b> {
         &self.odometry
     }
 
-    /// Per-stream tallies of every sample offered.
-    pub fn counts(&self) -> &StreamCounts {
-        &self.counts
+    /// Per-stream tallies of every sample offered, indexed by [`Stream`]:
+    /// the buffered streams, segmentation maps, reads refused by
+    /// [`Estimator::reject_read`], and the camera path's frame pairs
+    /// ([`FrontEnd::counts`]). A stream the estimator does not take stays
+    /// at zero.
+    pub fn counts(&self) -> StreamCounts {
+        let mut c = self.counts;
+        c[Stream::Camera].add(&self.camera_counts());
+        c
     }
 
-    /// Camera frames used and refused.
+    /// Camera frame pairs used and refused by the camera path.
     pub fn camera_counts(&self) -> SampleCounts {
         self.frontend
             .as_ref()

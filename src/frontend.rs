@@ -19,8 +19,9 @@
 //! Each pair is measured from the patches of its own two frames, but a
 //! carried point sits wherever the last pair put it, not on a corner, and at
 //! a sub-pixel phase that changes from frame to frame; on the simulated
-//! office and slip runs this made single pairs noisier and the minute-long
-//! trajectories more accurate (`benches/README.md`, session 7).
+//! office and slip runs this makes single pairs noisier and the minute-long
+//! trajectories more accurate (`benches/README.md`, the re-detection
+//! threshold table).
 //!
 //! A frame with too few corners of its own whose motion fails (black,
 //! saturated, uniform, blurred) is refused and the reference kept, so the

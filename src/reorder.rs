@@ -13,9 +13,9 @@
 use core::cmp::Ordering;
 use heapless::binary_heap::{BinaryHeap, Min};
 use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
-use vslam_core::{Reject, Timestamp};
+use vslam_core::{Reject, Stream, Timestamp};
 
-/// A sample of one of the buffered streams.
+/// A sample of one of the buffered streams (see [`Event::stream`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
     /// An IMU reading.
@@ -33,6 +33,15 @@ impl Event {
             Event::Imu(s) => s.t,
             Event::Wheel(s) => s.t,
             Event::Flow(s) => s.t,
+        }
+    }
+
+    /// The stream the sample belongs to.
+    pub const fn stream(&self) -> Stream {
+        match self {
+            Event::Imu(_) => Stream::Imu,
+            Event::Wheel(_) => Stream::Wheel,
+            Event::Flow(_) => Stream::Flow,
         }
     }
 }
@@ -212,6 +221,17 @@ mod tests {
         assert_eq!(r.pop_until(Timestamp(104)), Some(wheel(104)));
         assert_eq!(r.pop_until(Timestamp(104)), None);
         assert_eq!(r.pop_any().map(|e| e.t()), Some(Timestamp(108)));
+    }
+
+    #[test]
+    fn events_name_their_streams() {
+        assert_eq!(imu(1).stream(), Stream::Imu);
+        assert_eq!(wheel(1).stream(), Stream::Wheel);
+        let flow = Event::Flow(FlowSample {
+            t: Timestamp(1),
+            ..FlowSample::default()
+        });
+        assert_eq!(flow.stream(), Stream::Flow);
     }
 
     #[test]

@@ -38,6 +38,7 @@ mod replay;
 
 use replay::{FrontEndRun, NoProbe, Summary, Value};
 use traction::frontend::FrontEndBuffers;
+use traction::vslam_core::Stream;
 
 static SAMPLE: &[u8] = include_bytes!("../firmware/data/sample.bin");
 static FRAMES: &[u8] = include_bytes!("../firmware/data/frames160.bin");
@@ -171,10 +172,23 @@ fn host_loop_runs_the_sample_data() {
     print!("{text}");
     let s = &host.summary;
     // Every record read; the filter started and fused most of each stream.
+    // One value per stream of the registry, in its order.
     let records = get(&lines, "records");
+    assert_eq!(records.len(), Stream::COUNT);
+    for (stream, n) in [
+        (Stream::Imu, 3001),
+        (Stream::Wheel, 601),
+        (Stream::Flow, 1200),
+        (Stream::Camera, 120),
+    ] {
+        assert_eq!(records[stream.index()], Value::N(n), "{stream}");
+        assert_eq!(s.records[stream], n, "{stream}");
+    }
+    let total: u32 = s.records.iter().map(|(_, n)| n).sum();
     assert_eq!(
-        records,
-        &[Value::N(3001), Value::N(601), Value::N(1200), Value::N(120)]
+        total,
+        3001 + 601 + 1200 + 120,
+        "no other stream in the data"
     );
     assert!(s.ekf.is_initialised());
     let imu = s.ekf.imu_counts();
@@ -201,6 +215,26 @@ fn host_loop_runs_the_sample_data() {
         m.t_over_d().norm() > 0.002 && m.t_over_d().norm() < 0.05,
         "{m:?}"
     );
+    // The tallies also print with their reason names: the flow filter's
+    // starts `fused N, gated G`, then the reasons it refused samples for.
+    let mut counts = String::new();
+    s.write_counts(&mut counts).unwrap();
+    print!("{counts}");
+    let flow = s.ekf.flow_counts();
+    let line = format!(
+        "counts ekf.flow_counts fused {}, gated {}",
+        flow.fused(),
+        flow.gated()
+    );
+    assert!(counts.lines().any(|l| l.starts_with(&line)), "{counts}");
+    for (reason, n) in flow.by_reason() {
+        if n > 0 && reason != traction::vslam_core::Reject::Gated {
+            assert!(
+                counts.contains(&format!("{reason} {n}")),
+                "{reason}: {counts}"
+            );
+        }
+    }
     // The printed form reads back exactly.
     let (problems, worst) = compare(&text, &host);
     assert!(problems.is_empty(), "{problems:#?}");

@@ -225,6 +225,7 @@ fn main() -> ! {
     let _ = writeln!(out, "dropped_measurements {dropped}");
     sizes(&mut out);
     let _ = summary.write(&mut out);
+    let _ = summary.write_counts(&mut out);
     let _ = frontend.write(&mut out);
     // The deepest the stack went: during a measured call, or anywhere else.
     let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);

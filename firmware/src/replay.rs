@@ -31,7 +31,7 @@ use traction::vslam_core::robot::{
 use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
 use traction::vslam_core::sensors::ImuSample;
-use traction::vslam_core::{Reject, SampleCounts};
+use traction::vslam_core::{PerStream, Reject, SampleCounts};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 use crate::frames;
@@ -218,8 +218,9 @@ pub struct Summary {
     pub scale: ScalePipeline<TRAJECTORY>,
     /// IMU samples refused by the range check before the filter.
     pub imu_invalid: SampleCounts,
-    /// Records of each kind: IMU, wheel, flow, camera.
-    pub records: [u32; 4],
+    /// Records of each stream (the sample format carries IMU, wheel, flow
+    /// and camera records; the other streams stay at zero).
+    pub records: PerStream<u32>,
     /// Camera motions that got a scale.
     pub scaled_frames: u32,
 }
@@ -233,25 +234,23 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
     let mut scale: ScalePipeline<TRAJECTORY> =
         ScalePipeline::new(cfg.scale).map_err(|_| RunError::Config("scale pipeline"))?;
     let mut imu_invalid = SampleCounts::new();
-    let mut counts = [0u32; 4];
+    let mut counts = PerStream::splat(0u32);
     let mut scaled_frames = 0u32;
     let (gyro_max, accel_max) = (cfg.filter.imu_gyro_max, cfg.filter.imu_accel_max);
     for record in records {
-        match record.map_err(RunError::Format)? {
-            Record::Imu(raw) => {
-                counts[0] += 1;
-                match ImuSample::with_range(&raw, gyro_max, accel_max) {
-                    Ok(s) => {
-                        let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
-                        if step.is_ok() {
-                            let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
-                        }
+        let record = record.map_err(RunError::Format)?;
+        counts[record.stream()] += 1;
+        match record {
+            Record::Imu(raw) => match ImuSample::with_range(&raw, gyro_max, accel_max) {
+                Ok(s) => {
+                    let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
+                    if step.is_ok() {
+                        let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
                     }
-                    Err(r) => imu_invalid.rejected_one(r),
                 }
-            }
+                Err(r) => imu_invalid.rejected_one(r),
+            },
             Record::Wheel(ticks) => {
-                counts[1] += 1;
                 let step = probe.measure(Step::Odometry, || odometry.update(ticks));
                 if let Ok(Some(step)) = step {
                     let _ = probe.measure(Step::ScaleWheel, || scale.push_wheel(&step.delta));
@@ -259,12 +258,10 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
                 }
             }
             Record::Flow(s) => {
-                counts[2] += 1;
                 let _ = probe.measure(Step::ScaleFlow, || scale.push_flow(&s));
                 let _ = probe.measure(Step::FuseFlow, || ekf.fuse_flow(&s));
             }
             Record::Camera(m) => {
-                counts[3] += 1;
                 let d = probe.measure(Step::ScaleCamera, || scale.push_camera(&m));
                 if matches!(d, Ok(ref d) if d.scale.is_ok()) {
                     scaled_frames += 1;
@@ -430,10 +427,6 @@ impl Summary {
         f("ekf.accel_bias", &v3(e.accel_bias()));
         f("ekf.gyro_bias", &v3(e.gyro_bias()));
         f("ekf.position_std", &v3(e.position_std()));
-        f("ekf.imu_counts", &counts(e.imu_counts()));
-        f("ekf.wheel_counts", &counts(e.wheel_counts()));
-        f("ekf.flow_counts", &counts(e.flow_counts()));
-        f("ekf.zupt_counts", &counts(e.zupt_counts()));
         match self.scale.running_scale() {
             Some(s) => f(
                 "scale.running",
@@ -458,16 +451,8 @@ impl Summary {
             ],
         );
         f("scale.scaled_frames", &[Value::N(self.scaled_frames)]);
-        for (name, kind) in [
-            ("scale.wheel_counts", SensorKind::Wheel),
-            ("scale.flow_counts", SensorKind::Flow),
-            ("scale.camera_counts", SensorKind::Camera),
-            ("scale.imu_counts", SensorKind::Imu),
-        ] {
-            f(name, &counts(&self.scale.counts(kind)));
-        }
-        f("odometry.counts", &counts(self.odometry.counts()));
-        f("records", &self.records.map(Value::N));
+        self.each_count(&mut |name, c| f(name, &counts(c)));
+        f("records", &self.records.as_array().map(Value::N));
         f(
             "imu.invalid",
             &[
@@ -475,6 +460,37 @@ impl Summary {
                 Value::N(self.imu_invalid.rejected_total()),
             ],
         );
+    }
+
+    /// Every tally of the run: `(name, counts)`.
+    pub fn each_count(&self, f: &mut dyn FnMut(&str, &SampleCounts)) {
+        let e = &self.ekf;
+        f("ekf.imu_counts", e.imu_counts());
+        f("ekf.wheel_counts", e.wheel_counts());
+        f("ekf.flow_counts", e.flow_counts());
+        f("ekf.zupt_counts", e.zupt_counts());
+        for (name, kind) in [
+            ("scale.wheel_counts", SensorKind::Wheel),
+            ("scale.flow_counts", SensorKind::Flow),
+            ("scale.camera_counts", SensorKind::Camera),
+            ("scale.imu_counts", SensorKind::Imu),
+        ] {
+            f(name, &self.scale.counts(kind));
+        }
+        f("odometry.counts", self.odometry.counts());
+    }
+
+    /// Writes one line `counts NAME fused F, gated G, rejected: REASON N, ...`
+    /// per tally: the counts with their reason names, for a reader (the
+    /// `result` lines carry the same numbers for the host comparison).
+    pub fn write_counts(&self, out: &mut dyn Write) -> fmt::Result {
+        let mut result = Ok(());
+        self.each_count(&mut |name, c| {
+            if result.is_ok() {
+                result = writeln!(out, "counts {name} {c}");
+            }
+        });
+        result
     }
 
     /// Writes one line `result NAME V...` per quantity; floats in the

@@ -24,10 +24,10 @@
 
 use core::fmt;
 
-use traction::vslam_core::Timestamp;
 use traction::vslam_core::geometry::{Mat3, Rot3, Vec3};
 use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+use traction::vslam_core::{Stream, Timestamp};
 
 /// First four bytes of the stream.
 pub const MAGIC: [u8; 4] = *b"TRSD";
@@ -74,6 +74,18 @@ pub enum Record {
     Flow(FlowSample),
     /// The motion of the upward camera between two frames.
     Camera(CameraMotion),
+}
+
+impl Record {
+    /// The stream the record belongs to.
+    pub const fn stream(&self) -> Stream {
+        match self {
+            Record::Imu(_) => Stream::Imu,
+            Record::Wheel(_) => Stream::Wheel,
+            Record::Flow(_) => Stream::Flow,
+            Record::Camera(_) => Stream::Camera,
+        }
+    }
 }
 
 /// Why the stream could not be read.

@@ -4,7 +4,11 @@
 
 use nalgebra::Matrix3;
 
-use crate::state::{CP, CTH, Covariance, DIM, ErrorState, P, RB, TH, Vec3};
+use crate::config::{InitConfig, RobotPrior};
+use crate::state::{
+    BLOCKS, CLONE, CP, CTH, Covariance, DIM, ErrorState, P, Prior, ROTATION_COUNT, ROTATIONS, TH,
+    Vec3,
+};
 
 /// Makes `p` exactly symmetric by averaging it with its transpose.
 pub fn symmetrize(p: &mut Covariance) {
@@ -16,21 +20,20 @@ pub fn skew(v: &nalgebra::Vector3<f32>) -> Matrix3<f32> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
-/// The rotation blocks of the error state, whose errors the reset rotates.
-const ROTATIONS: [usize; 3] = [TH, CTH, RB];
-
-/// The nine error-state indices of the rotation blocks.
-const ROTATION_INDICES: [usize; 9] = [
-    TH,
-    TH + 1,
-    TH + 2,
-    CTH,
-    CTH + 1,
-    CTH + 2,
-    RB,
-    RB + 1,
-    RB + 2,
-];
+/// The error-state indices of the rotation blocks ([`ROTATIONS`], three
+/// each), in the table's order.
+#[allow(clippy::indexing_slicing)] // k < ROTATION_COUNT; evaluated at compile time
+const ROTATION_INDICES: [usize; 3 * ROTATION_COUNT] = {
+    let mut out = [0; 3 * ROTATION_COUNT];
+    let mut k = 0;
+    while k < ROTATION_COUNT {
+        out[3 * k] = ROTATIONS[k];
+        out[3 * k + 1] = ROTATIONS[k] + 1;
+        out[3 * k + 2] = ROTATIONS[k] + 2;
+        k += 1;
+    }
+    out
+};
 
 /// Whether each error-state index lies in a rotation block. Evaluated at
 /// compile time: an index out of range is a build error, never a panic.
@@ -46,13 +49,14 @@ const IS_ROTATION: [bool; DIM] = {
 };
 
 /// The error reset after an update: `P <- G P G^T` with `G = I` except
-/// `I - [dtheta/2]x` on every rotation block (IMU attitude, clone attitude,
-/// body-to-robot rotation); Solà 2017, eq. 287.
+/// `I - [dtheta/2]x` on every rotation block ([`ROTATIONS`]: IMU
+/// attitude, body-to-robot rotation, clone attitude); Solà 2017, eq. 287.
 ///
-/// `G` touches only the nine rotation rows and columns: the rotation
+/// `G` touches only the rotation rows and columns (nine for the three
+/// blocks): the rotation
 /// columns become `P G^T` in place (six multiply-adds a row and block); the
 /// rotation rows of the other columns are, by symmetry, those columns'
-/// entries (copied); only the 9x9 rotation-rotation entries need the row
+/// entries (copied); only the rotation-rotation entries need the row
 /// operation `G (P G^T)`, and their upper triangle is copied to the lower,
 /// so the result is exactly symmetric if `P` was. About 800 multiply-adds.
 pub fn reset(p: &mut Covariance, dx: &ErrorState) {
@@ -257,7 +261,7 @@ pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude:
 /// [`crate::propagate::propagate_covariance_clone_decoupled`]). For a clone
 /// that will be overwritten by [`clone_pose`] before anything reads it.
 pub fn decouple_clone(p: &mut Covariance) {
-    let clone = CP..CTH + 3;
+    let clone = CLONE;
     for (j, col) in p.data.0.iter_mut().enumerate() {
         if clone.contains(&j) {
             for (i, v) in col.iter_mut().enumerate() {
@@ -269,6 +273,35 @@ pub fn decouple_clone(p: &mut Covariance) {
             rows.fill(0.0);
         }
     }
+}
+
+/// The diagonal of the initial covariance: each block's variance the
+/// square of the standard deviation its [`Prior`] names in the state table
+/// (the attitude's tilt on its first two components, yaw on the third);
+/// zero on the clone, which the caller sets by copying the pose
+/// ([`clone_pose`]).
+pub fn initial_variances(init: &InitConfig, robot: &RobotPrior) -> ErrorState {
+    let mut d = ErrorState::zeros();
+    for b in BLOCKS {
+        let std = match b.prior {
+            Prior::Copied => continue,
+            Prior::Position => init.position_std,
+            Prior::Velocity => init.velocity_std,
+            Prior::Attitude => {
+                d.rows_mut(b.start, 2).fill(init.tilt_std * init.tilt_std);
+                d.rows_mut(b.start + 2, 1).fill(init.yaw_std * init.yaw_std);
+                continue;
+            }
+            Prior::AccelBias => init.accel_bias_std,
+            Prior::GyroBias => init.gyro_bias_std,
+            Prior::Gravity => init.gravity_std,
+            Prior::Contact => robot.contact_std,
+            Prior::BodyToRobot => robot.rotation_std,
+            Prior::Radius => robot.radius_std,
+        };
+        d.rows_mut(b.start, b.dim).fill(std * std);
+    }
+    d
 }
 
 // The clone's position and attitude are adjacent.
@@ -300,4 +333,47 @@ pub fn is_positive_definite(p: &Covariance) -> bool {
     let d = p.diagonal().map(|v| 1.0 / libm::sqrtf(v));
     let c = p.component_mul(&(d * d.transpose()));
     nalgebra::Cholesky::new(c).is_some()
+}
+
+// Resets: a block of the state replaced by a measurement, its covariance
+// replaced by the measurement's variance with no correlation to the rest
+// (PX4 EKF2's `resetHorizontalVelocityTo` and friends). Used by the lockout
+// recovery ([`crate::recovery`]) and the flow's own reset
+// ([`crate::flow::fusion`]).
+
+/// Replaces the covariance of the `N` states from `START` by `var` on the
+/// diagonal and zero elsewhere in their rows and columns: the block becomes
+/// uncorrelated with the rest, which keeps `P` symmetric positive definite
+/// (for `var > 0`).
+pub fn reset_block<const START: usize, const N: usize>(p: &mut Covariance, var: f32) {
+    const { assert!(START + N <= DIM) };
+    p.fixed_rows_mut::<N>(START).fill(0.0);
+    p.fixed_columns_mut::<N>(START).fill(0.0);
+    for i in START..START + N {
+        if let Some(d) = p.get_mut((i, i)) {
+            *d = var;
+        }
+    }
+}
+
+/// Resets the velocity so that the robot-origin horizontal velocity, robot
+/// frame, equals `z` (m/s; the vertical robot-frame component is kept),
+/// given the body rate `gyro` (bias-corrected, body frame), and replaces the
+/// velocity's covariance by `std^2` per component, uncorrelated
+/// ([`reset_block`]).
+pub fn reset_velocity(
+    x: &mut crate::state::NominalState,
+    p: &mut Covariance,
+    gyro: &Vec3,
+    z: &nalgebra::Vector2<f32>,
+    std: f32,
+) {
+    let r_rb = x.q_rb.to_rotation_matrix().into_inner();
+    let r_wb = x.q_wb.to_rotation_matrix().into_inner();
+    let p_mid = x.p_b_robot();
+    let v_b = r_wb.transpose() * x.v_wb;
+    let w_mid = r_rb * (v_b + gyro.cross(&p_mid));
+    let u_new = r_rb.transpose() * Vec3::new(z.x, z.y, w_mid.z);
+    x.v_wb = r_wb * (u_new - gyro.cross(&p_mid));
+    reset_block::<{ crate::state::V }, 3>(p, std * std);
 }

@@ -4,11 +4,10 @@
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
+use crate::aid_status::{FlowStatus, WheelStatus, ZuptStatus};
 use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
-use crate::flow::model::reset_velocity;
 use crate::flow::{FlowFused, FlowFusion};
-use crate::gap::odometry::SpeedWitness;
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
@@ -16,14 +15,12 @@ use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
     propagate_nominal, vertical_deviation,
 };
-use crate::recovery::{Evidence, RecoveryCounts, ResetSource, Verdict, decide};
+use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Verdict};
 use crate::state::{
-    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, RB, TH, V, Vec3,
+    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
 };
-use crate::update::gated_update;
 use crate::wheel::{WheelFusion, WheelInnovation};
-use crate::zupt::StillDetector;
-use crate::zupt::model::zupt_measurement;
+use crate::zupt::{StillDetector, ZuptFusion};
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
@@ -103,6 +100,7 @@ pub struct EgoEkf {
     imu_counts: SampleCounts,
     last_step: Option<ImuStep>,
     still: StillDetector,
+    zupt: ZuptFusion,
     wheel: WheelFusion,
     flow: FlowFusion,
     recovery: RecoveryCounts,
@@ -125,26 +123,6 @@ pub struct GapCounts {
     /// Of the gaps bridged, those the wheels dead-reckoned (the others at
     /// constant velocity).
     pub by_wheels: u32,
-}
-
-/// The flow's velocity, its forward component combined (inverse-variance)
-/// with the wheels' speed when the two agree within the wheels' gate: the
-/// flow vouches for the wheels, which are the more precise. The variance of
-/// the reset stays the flow's (conservative).
-fn confirmed_flow(
-    flow: &crate::recovery::FlowWitness,
-    wheel_speed: f32,
-    grip: &GripParams,
-) -> nalgebra::Vector2<f32> {
-    let var_f = flow.std * flow.std;
-    let var_w = grip.forward_std() * grip.forward_std();
-    let d = wheel_speed - flow.velocity.x;
-    let agree = d * d <= grip.forward_gate() * (var_f + var_w);
-    let mut z = flow.velocity;
-    if agree && var_f + var_w > 0.0 {
-        z.x = (flow.velocity.x * var_w + wheel_speed * var_f) / (var_f + var_w);
-    }
-    z
 }
 
 /// Short name of [`EgoEkf`].
@@ -180,6 +158,7 @@ impl EgoEkf {
             imu_counts: SampleCounts::new(),
             last_step: None,
             still: StillDetector::new(),
+            zupt: ZuptFusion::new(),
             wheel: WheelFusion::new(
                 config.wheel.max_dt_ns,
                 config.wheel.max_age_ns,
@@ -232,24 +211,7 @@ impl EgoEkf {
     }
 
     fn begin(&mut self, t: Timestamp) {
-        let i = &self.config.init;
-        let r = &self.config.robot;
-        let mut d = crate::state::ErrorState::zeros();
-        let blocks = [
-            (P, 3, i.position_std),
-            (V, 3, i.velocity_std),
-            (TH, 2, i.tilt_std),
-            (TH + 2, 1, i.yaw_std),
-            (BA, 3, i.accel_bias_std),
-            (BG, 3, i.gyro_bias_std),
-            (crate::state::G, 3, i.gravity_std),
-            (CL, 6, r.contact_std),
-            (RB, 3, r.rotation_std),
-            (RAD_L, 2, r.radius_std),
-        ];
-        for (start, len, std) in blocks {
-            d.rows_mut(start, len).fill(std * std);
-        }
+        let d = covariance::initial_variances(&self.config.init, &self.config.robot);
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
         self.clone_due = false;
@@ -258,6 +220,7 @@ impl EgoEkf {
         let _ = self.imu_clock.accept(t);
         self.initialiser.restart();
         self.still = StillDetector::new();
+        self.zupt = ZuptFusion::new();
         self.initialised = true;
     }
 
@@ -324,7 +287,13 @@ impl EgoEkf {
             &gyro,
             &accel,
             self.config.gravity,
-            self.wheel.stopped() && !self.flow_sees_motion(sample.t()),
+            self.wheel.stopped()
+                && !recovery::flow_sees_motion(
+                    &self.config.recovery,
+                    self.flow_max_age_ns(),
+                    self.flow_witness_at(sample.t()),
+                    sample.t(),
+                ),
         );
         self.clone_if_due(still);
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
@@ -343,9 +312,7 @@ impl EgoEkf {
             covariance::decouple_clone(&mut self.p);
             self.clone_due = true;
         } else if self.still.update_due(&zc) {
-            let m = zupt_measurement(&self.x, &zc);
-            let outcome = gated_update(&mut self.x, &mut self.p, &m, None).map(|_| ());
-            self.still.record(outcome);
+            let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
         }
         Ok(ImuStep {
             t: sample.t(),
@@ -379,20 +346,15 @@ impl EgoEkf {
         }
     }
 
-    /// Whether the flow, recent and precise, sees the robot move: then
-    /// wheels that report no motion (frozen counts) cannot make it still.
-    /// Moving means a mean speed above three of its standard deviations
-    /// and above 3 cm/s.
-    fn flow_sees_motion(&self, t: Timestamp) -> bool {
-        let Some(flow) = self.config.flow else {
-            return false;
-        };
-        let r = &self.config.recovery;
-        self.flow.witness(t).is_some_and(|w| {
-            let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= flow.max_age_ns;
-            let speed = w.velocity.norm();
-            recent && w.std <= r.flow_witness_max_std && speed > 0.03_f32.max(3.0 * w.std)
-        })
+    /// The oldest flow report that is still a witness, ns
+    /// ([`crate::config::FlowConfig::max_age_ns`]; 0 without a flow sensor).
+    fn flow_max_age_ns(&self) -> u64 {
+        self.config.flow.map_or(0, |f| f.max_age_ns)
+    }
+
+    /// The flow's recent mean at `t`, if a flow sensor is configured.
+    fn flow_witness_at(&self, t: Timestamp) -> Option<FlowWitness> {
+        self.config.flow.and_then(|_| self.flow.witness(t))
     }
 
     /// Bridges the gap from `start` to `end` (`gap_ns` long): with the
@@ -425,14 +387,19 @@ impl EgoEkf {
     /// [`WheelInnovation::recovery`] and counted ([`EgoEkf::recovery`]).
     pub fn fuse_wheel(&mut self, rates: &WheelRates) -> Result<WheelInnovation, Reject> {
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
-            return Err(self.wheel.refuse(Reject::NotReady));
+            return Err(self.wheel.refuse(rates.t, Reject::NotReady));
         };
         // While the IMU is silent the sample dead-reckons the gap (counted in
         // `gap_wheel_counts`); the wheel fusion below refuses it if it is
         // too far ahead of the filter's time. Geometry and witness only then.
         if GapOdometry::during_gap(now, rates.t, &self.config) {
             let geometry = wheel_geometry(&self.x, &self.grip);
-            let witness = self.speed_witness(rates.t);
+            let witness = recovery::speed_witness(
+                &self.config.recovery,
+                self.flow_max_age_ns(),
+                self.flow_witness_at(rates.t),
+                rates.t,
+            );
             let _ = self
                 .gap_odometry
                 .offer(now, rates, &geometry, witness, &self.config);
@@ -449,7 +416,7 @@ impl EgoEkf {
         );
         if let Ok(inn) = out.as_mut()
             && inn.gated
-            && self.wheel.gated_run().due(&self.config.wheel)
+            && self.wheel.watch().run().due(&self.config.wheel)
         {
             let verdict = self.re_examine(rates, inn);
             inn.recovery = Some(verdict);
@@ -459,35 +426,19 @@ impl EgoEkf {
         out
     }
 
-    /// The flow's forward speed at `t`, if it is recent and precise (the
-    /// wheels are checked against it while the IMU is silent).
-    fn speed_witness(&self, t: Timestamp) -> Option<SpeedWitness> {
-        let flow = self.config.flow?;
-        let r = &self.config.recovery;
-        self.flow
-            .witness(t)
-            .filter(|w| {
-                t.as_nanos().abs_diff(w.t.as_nanos()) <= flow.max_age_ns
-                    && w.std <= r.flow_witness_max_std
-            })
-            .map(|w| SpeedWitness {
-                speed: w.velocity.x,
-                std: w.std,
-            })
-    }
-
     /// Asks the most trusted witness about the velocity after a run of gated
-    /// wheel samples and resets it if the witness says so.
+    /// wheel samples and resets it if the witness says so (see
+    /// [`crate::recovery`]).
     fn re_examine(&mut self, rates: &WheelRates, inn: &WheelInnovation) -> Verdict {
         let gyro = self.angular_velocity();
         let v = self.robot_velocity();
-        let flow_config = self.config.flow;
-        let max_age = flow_config.map_or(0, |f| f.max_age_ns);
-        let flow = self.flow.witness(rates.t).filter(|w| {
-            flow_config.is_some() && rates.t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age
-        });
+        let flow = recovery::recent(
+            self.flow_max_age_ns(),
+            self.flow_witness_at(rates.t),
+            rates.t,
+        );
         let var = self.p.fixed_view::<2, 2>(V, V).trace() * 0.5;
-        let run = *self.wheel.gated_run();
+        let run = *self.wheel.watch().run();
         let evidence = Evidence {
             filter_velocity: nalgebra::Vector2::new(v.x, v.y),
             filter_var: var,
@@ -496,22 +447,18 @@ impl EgoEkf {
             wheel_gate: self.grip.forward_gate(),
             grip: self.grip.grip(),
             flow,
-            flow_gate: flow_config.map_or(f32::INFINITY, |f| f.gate),
+            flow_gate: self.config.flow.map_or(f32::INFINITY, |f| f.gate),
             run: &run,
         };
-        let verdict = decide(&self.config.recovery, &self.config.wheel, &evidence);
-        let reset = match (verdict, flow) {
-            (Verdict::Reset(ResetSource::Flow), Some(f)) => {
-                Some((confirmed_flow(&f, inn.speed, &self.grip), f.std))
-            }
-            (Verdict::Reset(ResetSource::Wheels), _) => Some((
-                nalgebra::Vector2::new(inn.speed, 0.0),
-                self.grip.forward_std(),
-            )),
-            _ => None,
-        };
-        if let Some((z, std)) = reset {
-            reset_velocity(&mut self.x, &mut self.p, &gyro, &z, std);
+        let verdict = recovery::re_examine(
+            &self.config.recovery,
+            &self.config.wheel,
+            &evidence,
+            &mut self.x,
+            &mut self.p,
+            &gyro,
+        );
+        if let Verdict::Reset(_) = verdict {
             self.wheel.end_run();
         }
         verdict
@@ -526,10 +473,10 @@ impl EgoEkf {
     /// behind is [`Reject::OutOfOrder`].
     pub fn fuse_flow(&mut self, sample: &FlowSample) -> Result<FlowFused, Reject> {
         let Some(config) = self.config.flow else {
-            return Err(self.flow.refuse(Reject::NotReady));
+            return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let (true, Some(now)) = (self.initialised, self.imu_clock.last()) else {
-            return Err(self.flow.refuse(Reject::NotReady));
+            return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let gyro = self.angular_velocity();
         let out = self
@@ -683,9 +630,20 @@ impl EgoEkf {
         self.last_step
     }
 
-    /// The latest wheel innovation.
-    pub fn last_wheel_innovation(&self) -> Option<WheelInnovation> {
-        self.wheel.last()
+    /// The wheels' status after their latest sample: forward and
+    /// differential rows (see [`crate::aid_status`]).
+    pub fn wheel_status(&self) -> Option<&WheelStatus> {
+        self.wheel.status()
+    }
+
+    /// The optical flow's status after its latest report.
+    pub fn flow_status(&self) -> Option<&FlowStatus> {
+        self.flow.status()
+    }
+
+    /// The zero-velocity update's status after the latest update.
+    pub fn zupt_status(&self) -> Option<&ZuptStatus> {
+        self.zupt.status()
     }
 
     /// IMU samples propagated and rejected by reason.
@@ -740,6 +698,6 @@ impl EgoEkf {
 
     /// Zero-velocity updates fused and rejected.
     pub fn zupt_counts(&self) -> &SampleCounts {
-        self.still.counts()
+        self.zupt.counts()
     }
 }

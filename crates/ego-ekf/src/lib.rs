@@ -8,11 +8,14 @@
 //!
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
-//! - [`update`]: the shared gated update; [`covariance`]: reset, clone, checks;
+//! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
+//!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
 //! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
-//!   fuse* apart from *the maths*;
-//! - [`recovery`]: out of a wheel lockout from the most trusted source;
+//!   fuse* apart from *the maths*; [`aid_status`]: the one status record
+//!   each of them leaves (PX4 EKF2 `estimator_aid_source` style);
+//! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
+//!   of a lockout from the most trusted source);
 //!   [`gap`]: bridging an IMU gap;
 //! - [`filter`]: [`EgoEkf`], the type users call.
 #![no_std]
@@ -26,6 +29,7 @@
     )
 )]
 
+pub mod aid_status;
 pub mod config;
 pub mod covariance;
 pub mod events;
@@ -34,7 +38,7 @@ pub mod flow;
 pub mod gap;
 pub mod grip;
 pub mod init;
-mod lanes;
+mod kernels;
 pub mod propagate;
 pub mod recovery;
 pub mod reference;
@@ -44,6 +48,7 @@ pub mod update;
 pub mod wheel;
 pub mod zupt;
 
+pub use aid_status::{AidOutcome, AidStatus, FlowStatus, WheelStatus, ZuptStatus};
 pub use config::{
     ConfigError, FilterConfig, FlowConfig, GapConfig, ImuNoise, InitConfig, RecoveryConfig,
     RobotPrior, WheelConfig, ZuptConfig,

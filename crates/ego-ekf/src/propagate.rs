@@ -22,7 +22,7 @@ use nalgebra::{Matrix3, Rotation3};
 use crate::config::{ImuNoise, RobotPrior};
 use crate::covariance::skew;
 use crate::state::{
-    BA, BG, CL, CP, Covariance, DIM, ErrorState, G, NominalState, P, RAD, RB, TH, V, Vec3,
+    BA, BG, BLOCKS, CLONE, Covariance, DIM, Drive, ErrorState, G, NominalState, P, TH, V, Vec3,
 };
 
 /// The non-identity blocks of the discrete error-state transition `F_x`.
@@ -88,23 +88,56 @@ pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
 /// The diagonal of the discrete process noise `Q` for a step of `dt`
 /// seconds: `V_i = sigma_a^2 dt`, `Theta_i = sigma_w^2 dt`,
 /// `A_i = sigma_aw^2 dt`, `Omega_i = sigma_ww^2 dt` (Solà 2017, eq. 271 with
-/// continuous densities), and the robot states' random walks.
+/// continuous densities), and the robot states' random walks: for each
+/// block of the state table, the density its [`Drive`] names.
 pub fn process_noise(imu: &ImuNoise, robot: &RobotPrior, dt: f32) -> ErrorState {
     let mut q = ErrorState::zeros();
-    let blocks = [
-        (V, 3, imu.accel_density),
-        (TH, 3, imu.gyro_density),
-        (BA, 3, imu.accel_random_walk),
-        (BG, 3, imu.gyro_random_walk),
-        (CL, 6, robot.contact_random_walk),
-        (RB, 3, robot.rotation_random_walk),
-        (RAD, 2, robot.radius_random_walk),
-    ];
-    for (start, len, density) in blocks {
+    for (start, len, drive) in DRIVEN {
+        let density = match drive {
+            Drive::Zero => 0.0,
+            Drive::AccelNoise => imu.accel_density,
+            Drive::GyroNoise => imu.gyro_density,
+            Drive::AccelBiasWalk => imu.accel_random_walk,
+            Drive::GyroBiasWalk => imu.gyro_random_walk,
+            Drive::ContactWalk => robot.contact_random_walk,
+            Drive::RotationWalk => robot.rotation_random_walk,
+            Drive::RadiusWalk => robot.radius_random_walk,
+        };
         q.rows_mut(start, len).fill(density * density * dt);
     }
     q
 }
+
+/// Number of blocks with process noise.
+#[allow(clippy::indexing_slicing)] // k < BLOCKS.len(); evaluated at compile time
+const DRIVEN_COUNT: usize = {
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        if !matches!(BLOCKS[k].drive, Drive::Zero) {
+            n += 1;
+        }
+        k += 1;
+    }
+    n
+};
+
+/// `(start, dimension, drive)` of the blocks with process noise, from the
+/// state table (constants, so the loop of [`process_noise`] unrolls into
+/// stores at fixed rows).
+#[allow(clippy::indexing_slicing)] // n < DRIVEN_COUNT, k < BLOCKS.len(); evaluated at compile time
+const DRIVEN: [(usize, usize, Drive); DRIVEN_COUNT] = {
+    let mut out = [(0, 0, Drive::Zero); DRIVEN_COUNT];
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        let b = BLOCKS[k];
+        if !matches!(b.drive, Drive::Zero) {
+            out[n] = (b.start, b.dim, b.drive);
+            n += 1;
+        }
+        k += 1;
+    }
+    out
+};
 
 /// Integrates the nominal state over one step with bias-corrected samples
 /// (Solà 2017, eq. 260). Clone and robot states do not move.
@@ -116,7 +149,7 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
 }
 
 // The block step below relies on position, velocity and attitude being the
-// first nine error-state components, followed by the accelerometer bias, the
+// first nine error-state components (the state table's first blocks), followed by the accelerometer bias, the
 // gyroscope bias and gravity.
 const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G == 15);
 
@@ -158,14 +191,10 @@ fn rows_of(rows: usize, column: &[f32; DIM]) -> &[f32] {
     column.get(..rows).unwrap_or(&[])
 }
 
-/// Rows of the clone (skipped when decoupled): the last ones.
-const CLONE_ROWS: core::ops::Range<usize> = CP..CP + 6;
-const _: () = assert!(CLONE_ROWS.end == DIM);
-
 /// How many rows the column passes visit: all, or all but the clone's
-/// (the clone is the last block of the state).
+/// (the clone is the last block of the state, [`CLONE`]).
 const fn rows_visited(skip_clone: bool) -> usize {
-    if skip_clone { CLONE_ROWS.start } else { DIM }
+    if skip_clone { CLONE.start } else { DIM }
 }
 
 /// The columns of `P F^T` for position, velocity and attitude over the

@@ -35,15 +35,28 @@
 //!    towards the filter ends a slip: those onsets are trusted;
 //! 3. otherwise keep gating and say so ([`Verdict::NoTrustedSource`]).
 //!
-//! A reset replaces the horizontal robot-origin velocity by the source's and
-//! its covariance block by the source's variance, uncorrelated (see
-//! [`crate::flow::model::reset_velocity`]). Every verdict is counted
+//! A reset ([`re_examine`]) replaces the horizontal robot-origin velocity by
+//! the source's and its covariance block by the source's variance,
+//! uncorrelated (the primitive is [`crate::covariance::reset_velocity`]); a
+//! flow reset first combines the flow's forward speed with the wheels' when
+//! the two agree ([`confirmed_flow`]). Every verdict is counted
 //! ([`RecoveryCounts`]).
+//!
+//! The other cross-sensor rules live here too: the flow's recent mean as a
+//! witness ([`FlowWindow`]) that the robot moves although the wheels stand
+//! ([`flow_sees_motion`], for the still detector) and of the forward speed
+//! while the IMU is silent ([`speed_witness`], for the gap's wheel dead
+//! reckoning); the wheels' gated runs and their onsets ([`WheelWatch`]); and
+//! the flow's own way out of a lockout, a reset to the flow after a run of
+//! gated flow reports ([`flow_reset_due`]).
 
 use nalgebra::Vector2;
 use vslam_core::Timestamp;
 
-use crate::config::{RecoveryConfig, WheelConfig};
+use crate::config::{FlowConfig, RecoveryConfig, WheelConfig};
+use crate::covariance::reset_velocity;
+use crate::gap::odometry::SpeedWitness;
+use crate::state::{Covariance, NominalState, Vec3};
 
 /// Where a reset velocity came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -269,6 +282,52 @@ impl GatedRun {
     }
 }
 
+/// The wheels' side of the lockout watch: the current run of gated forward
+/// updates and when the wheels were last fused, which tells whether a run
+/// began after silence (see the module documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WheelWatch {
+    run: GatedRun,
+    last_fused: Option<Timestamp>,
+    resumed: Option<Timestamp>,
+}
+
+impl WheelWatch {
+    /// The current run of gated updates.
+    pub fn run(&self) -> &GatedRun {
+        &self.run
+    }
+
+    /// Ends the run of gated updates (after a velocity reset).
+    pub fn end_run(&mut self) {
+        self.run.clear();
+    }
+
+    /// Records a gated update at `t` with forward innovation `forward`, m/s.
+    pub fn gated(&mut self, config: &RecoveryConfig, t: Timestamp, forward: f32) {
+        // Silence: nothing fused for a while, or fusing resumed only just
+        // now after such a while (the first samples back may pass the gate
+        // and leave the rest of the offset).
+        let within = |since: Option<Timestamp>| {
+            since.is_some_and(|s| t.nanos_since(s).is_some_and(|d| d <= config.silence_ns))
+        };
+        let after_silence = !within(self.last_fused) || within(self.resumed);
+        self.run.push(config, forward, after_silence);
+    }
+
+    /// Records a fused update at `t`: the run ends.
+    pub fn fused(&mut self, config: &RecoveryConfig, t: Timestamp) {
+        let silent_before = self
+            .last_fused
+            .is_none_or(|f| t.nanos_since(f).is_none_or(|d| d > config.silence_ns));
+        if silent_before {
+            self.resumed = Some(t);
+        }
+        self.run.clear();
+        self.last_fused = Some(t);
+    }
+}
+
 /// What the filter knows when it re-examines its velocity.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Evidence<'a> {
@@ -318,6 +377,97 @@ pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<
         return Verdict::Reset(ResetSource::Wheels);
     }
     Verdict::NoTrustedSource
+}
+
+/// Decides on `evidence` ([`decide`]) and applies the verdict: a
+/// [`Verdict::Reset`] resets the velocity (robot origin, horizontal) from
+/// its source, with the source's variance, given the body rate `gyro`. The
+/// caller ends the wheels' gated run after a reset.
+pub fn re_examine(
+    config: &RecoveryConfig,
+    wheel: &WheelConfig,
+    evidence: &Evidence<'_>,
+    x: &mut NominalState,
+    p: &mut Covariance,
+    gyro: &Vec3,
+) -> Verdict {
+    let e = evidence;
+    let verdict = decide(config, wheel, e);
+    let reset = match (verdict, e.flow) {
+        (Verdict::Reset(ResetSource::Flow), Some(f)) => Some((confirmed_flow(&f, e), f.std)),
+        (Verdict::Reset(ResetSource::Wheels), _) => {
+            Some((Vector2::new(e.wheel_speed, 0.0), e.wheel_std))
+        }
+        _ => None,
+    };
+    if let Some((z, std)) = reset {
+        reset_velocity(x, p, gyro, &z, std);
+    }
+    verdict
+}
+
+/// The flow's velocity, its forward component combined (inverse-variance)
+/// with the wheels' speed when the two agree within the wheels' gate: the
+/// flow vouches for the wheels, which are the more precise. The variance of
+/// the reset stays the flow's (conservative).
+pub fn confirmed_flow(flow: &FlowWitness, evidence: &Evidence<'_>) -> Vector2<f32> {
+    let var_f = flow.std * flow.std;
+    let var_w = evidence.wheel_std * evidence.wheel_std;
+    let d = evidence.wheel_speed - flow.velocity.x;
+    let agree = d * d <= evidence.wheel_gate * (var_f + var_w);
+    let mut z = flow.velocity;
+    if agree && var_f + var_w > 0.0 {
+        z.x = (flow.velocity.x * var_w + evidence.wheel_speed * var_f) / (var_f + var_w);
+    }
+    z
+}
+
+/// The flow witness if its latest report lies within `max_age_ns`
+/// ([`FlowConfig::max_age_ns`]) of `t`.
+pub fn recent(max_age_ns: u64, witness: Option<FlowWitness>, t: Timestamp) -> Option<FlowWitness> {
+    witness.filter(|w| t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age_ns)
+}
+
+/// Whether the flow, recent and precise, sees the robot move at `t`: then
+/// wheels that report no motion (frozen counts) cannot make it still.
+/// Moving means a mean speed above three of its standard deviations and
+/// above 3 cm/s.
+pub fn flow_sees_motion(
+    config: &RecoveryConfig,
+    max_age_ns: u64,
+    witness: Option<FlowWitness>,
+    t: Timestamp,
+) -> bool {
+    witness.is_some_and(|w| {
+        let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age_ns;
+        let speed = w.velocity.norm();
+        recent && w.std <= config.flow_witness_max_std && speed > 0.03_f32.max(3.0 * w.std)
+    })
+}
+
+/// The flow's forward speed at `t`, if it is recent and precise: the wheels
+/// are checked against it while the IMU is silent
+/// ([`crate::gap::odometry`]).
+pub fn speed_witness(
+    config: &RecoveryConfig,
+    max_age_ns: u64,
+    witness: Option<FlowWitness>,
+    t: Timestamp,
+) -> Option<SpeedWitness> {
+    recent(max_age_ns, witness, t)
+        .filter(|w| w.std <= config.flow_witness_max_std)
+        .map(|w| SpeedWitness {
+            speed: w.velocity.x,
+            std: w.std,
+        })
+}
+
+/// Whether the flow's own run of `gated_run` gated reports ends in a reset
+/// of the velocity to the report: after [`FlowConfig::velocity_reset_after_gated`]
+/// in a row (0: never), of plausible speed.
+pub fn flow_reset_due(config: &FlowConfig, gated_run: u16, plausible: bool) -> bool {
+    let n = config.velocity_reset_after_gated;
+    n != 0 && gated_run >= n && plausible
 }
 
 /// Verdicts counted, and the latest.
@@ -517,5 +667,69 @@ mod tests {
         assert_eq!((r.wheels_slip, r.no_trusted_source), (1, 1));
         assert_eq!(r.last, Some((Timestamp(4), Verdict::NoTrustedSource)));
         assert_eq!(Verdict::WheelsSlip.name(), "wheels_slip");
+    }
+
+    #[test]
+    fn a_reset_sets_the_robot_velocity_and_decouples_it() {
+        use crate::state::{Quat, V};
+        let mut x = NominalState {
+            p_wb: Vec3::zeros(),
+            v_wb: Vec3::new(0.9, -0.2, 0.05),
+            q_wb: Quat::from_euler_angles(0.02, -0.01, 0.7),
+            accel_bias: Vec3::zeros(),
+            gyro_bias: Vec3::zeros(),
+            gravity: Vec3::new(0.0, 0.0, -9.81),
+            clone_p_wb: Vec3::zeros(),
+            clone_q_wb: Quat::identity(),
+            p_bl: Vec3::new(-0.05, 0.12, -0.04),
+            p_br: Vec3::new(-0.05, -0.12, -0.04),
+            q_rb: Quat::from_euler_angles(0.0, 0.01, 0.0),
+            radius_left: 0.035,
+            radius_right: 0.035,
+        };
+        let mut p = Covariance::identity() * 0.01;
+        p[(V, 0)] = 0.004;
+        p[(0, V)] = 0.004;
+        let gyro = Vec3::new(0.0, 0.0, 0.4);
+        let robot_velocity = |x: &NominalState| {
+            let v_b = x.q_wb.inverse() * x.v_wb;
+            x.q_rb * (v_b + gyro.cross(&x.p_b_robot()))
+        };
+        let before = robot_velocity(&x);
+        reset_velocity(&mut x, &mut p, &gyro, &Vector2::new(0.3, 0.01), 0.05);
+        let after = robot_velocity(&x);
+        assert!((after.x - 0.3).abs() < 1e-5 && (after.y - 0.01).abs() < 1e-5);
+        assert!((after.z - before.z).abs() < 1e-5, "{before} {after}");
+        assert_eq!(p[(V, 0)], 0.0);
+        assert_eq!(p[(0, V)], 0.0);
+        assert!((p[(V + 1, V + 1)] - 0.0025).abs() < 1e-9);
+        assert!(crate::covariance::is_positive_definite(&p));
+    }
+
+    #[test]
+    fn a_run_after_silence_is_a_trusted_onset() {
+        let c = RecoveryConfig::default();
+        let t = |ms: u64| Timestamp(ms * 1_000_000);
+        let mut w = WheelWatch::default();
+        // Nothing fused yet: the first gated update follows silence.
+        w.gated(&c, t(0), 0.4);
+        assert!(w.run().trusted_onset() && w.run().len() == 1);
+        // Fused at a steady pace, then gated: no silence.
+        let silence_ms = c.silence_ns / 1_000_000;
+        for k in 1..=3 * silence_ms / 20 {
+            w.fused(&c, t(1000 + 20 * k));
+        }
+        assert!(w.run().is_empty());
+        let last = 1000 + 20 * (3 * silence_ms / 20);
+        w.gated(&c, t(last + 20), 0.4);
+        assert!(!w.run().trusted_onset());
+        // A long pause, one fused sample (fusing resumes), then gated: the
+        // first samples back count as after silence.
+        let back = last + 40 + 2 * silence_ms;
+        w.fused(&c, t(back));
+        w.gated(&c, t(back + 20), 0.4);
+        assert!(w.run().trusted_onset());
+        w.end_run();
+        assert!(w.run().is_empty());
     }
 }

@@ -1,4 +1,4 @@
-//! The filter state: nominal values and the indices of the error state,
+//! The filter state: nominal values and the layout of the error state,
 //! defined once here (PX4 EKF2 style) and used everywhere else by name.
 //!
 //! Frames: world `W` (z up), the filter's body `b` is the IMU frame, and the
@@ -9,30 +9,54 @@
 //! robot vectors).
 //!
 //! Error-state parametrisation follows Solà, "Quaternion kinematics for the
-//! error-state Kalman filter" (2017), sec. 5.3 and 6.1: positions, velocities,
-//! biases, gravity, contact points and radii are additive; rotations are
-//! local (right) perturbations `R = R_hat Exp(dtheta)`.
+//! error-state Kalman filter" (2017), sec. 5.3 and 6.1: [`Kind::Vector`]
+//! blocks (positions, velocities, biases, gravity, contact points, radii)
+//! are additive; [`Kind::Rotation`] blocks are local (right) perturbations
+//! `R = R_hat Exp(dtheta)`, whose errors the reset after an update rotates
+//! (see [`crate::covariance::reset_upper`]).
 //!
-//! | block | nominal | error | indices |
-//! |---|---|---|---|
-//! | IMU position `p_wb` | 3 | 3 | [`P`] |
-//! | IMU velocity `v_wb` (world) | 3 | 3 | [`V`] |
-//! | attitude `q_wb` | 4 | 3 | [`TH`] |
-//! | accelerometer bias | 3 | 3 | [`BA`] |
-//! | gyroscope bias | 3 | 3 | [`BG`] |
-//! | gravity `g_w` | 3 | 3 | [`G`] |
-//! | left contact point `p_bl` | 3 | 3 | [`CL`] |
-//! | right contact point `p_br` | 3 | 3 | [`CR`] |
-//! | body-to-robot rotation `q_rb` | 4 | 3 | [`RB`] |
-//! | wheel radii (left, right) | 2 | 2 | [`RAD`] |
-//! | clone position | 3 | 3 | [`CP`] |
-//! | clone attitude | 4 | 3 | [`CTH`] |
+//! # The layout table
+//!
+//! [`BLOCKS`] is the one table of the error state, in order: each block's
+//! name, dimension, kind, part, process noise ([`Drive`]) and initial
+//! standard deviation ([`Prior`]); [`layout`] fills in the start indices.
+//! Everything else is derived from it by `const fn`s, at compile time:
+//! [`DIM`], the start of every block ([`P`], [`V`], ...), the clone's rows
+//! [`CLONE`], the rotation blocks [`ROTATIONS`], [`IMU_DIM`] and
+//! [`REST_DIM`], a measurement's supporting columns ([`columns`]); and at
+//! run time the diagonal of the process noise
+//! ([`crate::propagate::process_noise`]) and the initial covariance
+//! ([`crate::covariance::initial_variances`]). The covariance kernels
+//! (`crate::kernels`) are written over [`DIM`] and [`CLONE`]. Adding a
+//! block of states is a row of the table (plus its nominal field in
+//! [`NominalState`] and its use in the models).
+//!
+//! | block | nominal | error | kind | part | start |
+//! |---|---|---|---|---|---|
+//! | IMU position `p_wb` | 3 | 3 | vector | IMU | [`P`] = 0 |
+//! | IMU velocity `v_wb` (world) | 3 | 3 | vector | IMU | [`V`] = 3 |
+//! | attitude `q_wb` | 4 | 3 | rotation | IMU | [`TH`] = 6 |
+//! | accelerometer bias | 3 | 3 | vector | IMU | [`BA`] = 9 |
+//! | gyroscope bias | 3 | 3 | vector | IMU | [`BG`] = 12 |
+//! | gravity `g_w` | 3 | 3 | vector | IMU | [`G`] = 15 |
+//! | left contact point `p_bl` | 3 | 3 | vector | robot | [`CL`] = 18 |
+//! | right contact point `p_br` | 3 | 3 | vector | robot | [`CR`] = 21 |
+//! | body-to-robot rotation `q_rb` | 4 | 3 | rotation | robot | [`RB`] = 24 |
+//! | wheel radii (left, right) | 2 | 2 | vector | robot | [`RAD`] = 27 |
+//! | clone position | 3 | 3 | vector | clone | [`CP`] = 29 |
+//! | clone attitude | 4 | 3 | rotation | clone | [`CTH`] = 32 |
 //!
 //! IMU: nominal 19, error [`IMU_DIM`] = 18; robot 11; clone 6; total
-//! [`DIM`] = 35. The clone comes last: while it is decoupled (see
-//! [`crate::covariance::decouple_clone`]) the states that take part in
-//! propagation and updates are the first [`DIM`] - 6, one contiguous run
-//! that the covariance loops end early on instead of stepping over.
+//! [`DIM`] = 35 (the `tests` below pin these numbers, so a change of the
+//! table is a change of the tests too). The IMU part comes first (the
+//! propagation's transition works on its leading blocks) and the clone
+//! last: while it is decoupled (see [`crate::covariance::decouple_clone`])
+//! the states that take part in propagation and updates are the first
+//! [`CLONE`]`.start`, one contiguous run that the covariance loops end
+//! early on instead of stepping over. [`layout`] refuses (at compile time)
+//! a table that breaks either rule.
+
+use core::ops::Range;
 
 use nalgebra::{Quaternion, SMatrix, SVector, UnitQuaternion, Vector3};
 
@@ -41,40 +65,375 @@ pub type Vec3 = Vector3<f32>;
 /// Unit quaternion, `f32`.
 pub type Quat = UnitQuaternion<f32>;
 
+/// How a block's error enters its nominal value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Additive: `x = x_hat + dx`.
+    Vector,
+    /// A local rotation error of three components: `R = R_hat Exp(dtheta)`
+    /// (rotated by the error reset after an update).
+    Rotation,
+}
+
+/// Which part of the state a block belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// Moved by the IMU propagation (the leading blocks).
+    Imu,
+    /// Robot states: constant in propagation, random walks.
+    Robot,
+    /// The pose clone (the trailing blocks): a copy of the pose, neither
+    /// propagated nor driven by noise.
+    Clone,
+}
+
+/// The process noise that drives a block: which density or random walk of
+/// the configuration ([`crate::config::ImuNoise`],
+/// [`crate::config::RobotPrior`]) enters its diagonal of `Q` (see
+/// [`crate::propagate::process_noise`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drive {
+    /// No process noise (position, gravity, the clone).
+    Zero,
+    /// Accelerometer white noise (velocity).
+    AccelNoise,
+    /// Gyroscope white noise (attitude).
+    GyroNoise,
+    /// Accelerometer bias random walk.
+    AccelBiasWalk,
+    /// Gyroscope bias random walk.
+    GyroBiasWalk,
+    /// Contact-point random walk.
+    ContactWalk,
+    /// Body-to-robot rotation random walk.
+    RotationWalk,
+    /// Wheel-radius random walk.
+    RadiusWalk,
+}
+
+/// The initial standard deviation of a block: which one of the
+/// configuration ([`crate::config::InitConfig`],
+/// [`crate::config::RobotPrior`]) sets its diagonal of the initial
+/// covariance (see [`crate::covariance::initial_variances`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Prior {
+    /// None: set by the copy of the pose (the clone).
+    Copied,
+    /// Position.
+    Position,
+    /// Velocity.
+    Velocity,
+    /// Attitude: tilt on the first two components, yaw on the third.
+    Attitude,
+    /// Accelerometer bias.
+    AccelBias,
+    /// Gyroscope bias.
+    GyroBias,
+    /// Gravity.
+    Gravity,
+    /// Contact point.
+    Contact,
+    /// Body-to-robot rotation.
+    BodyToRobot,
+    /// Wheel radius.
+    Radius,
+}
+
+/// One block of the error state: a row of [`BLOCKS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Block {
+    /// Name (the nominal field's).
+    pub name: &'static str,
+    /// First error-state index (filled in by [`layout`]).
+    pub start: usize,
+    /// Error-state dimension.
+    pub dim: usize,
+    /// Additive or rotation.
+    pub kind: Kind,
+    /// IMU, robot or clone.
+    pub part: Part,
+    /// Its process noise.
+    pub drive: Drive,
+    /// Its initial standard deviation.
+    pub prior: Prior,
+}
+
+impl Block {
+    /// A block of the table (its start is filled in by [`layout`]).
+    pub const fn new(
+        name: &'static str,
+        dim: usize,
+        kind: Kind,
+        part: Part,
+        drive: Drive,
+        prior: Prior,
+    ) -> Self {
+        Block {
+            name,
+            start: 0,
+            dim,
+            kind,
+            part,
+            drive,
+            prior,
+        }
+    }
+
+    /// The block's error-state indices.
+    pub const fn range(&self) -> Range<usize> {
+        self.start..self.start + self.dim
+    }
+}
+
+/// The table's rows with their start indices: each block starts where the
+/// one before it ends. Refuses (a compile-time error for a `const`) a
+/// table that does not put the IMU part first and the clone last, a
+/// rotation block that is not three-dimensional, or an empty block.
+#[allow(clippy::indexing_slicing)] // k < N; a const fn panics at compile time
+pub const fn layout<const N: usize>(mut blocks: [Block; N]) -> [Block; N] {
+    let mut start = 0;
+    let mut k = 0;
+    while k < N {
+        let b = &mut blocks[k];
+        assert!(b.dim > 0, "an empty block");
+        assert!(
+            !matches!(b.kind, Kind::Rotation) || b.dim == 3,
+            "a rotation block has three components"
+        );
+        assert!(
+            !matches!(b.part, Part::Clone) || matches!(b.drive, Drive::Zero),
+            "the clone has no process noise"
+        );
+        if k > 0 {
+            let before = part_rank(blocks[k - 1].part);
+            assert!(
+                before <= part_rank(blocks[k].part),
+                "the IMU blocks come first, the clone's last"
+            );
+        }
+        blocks[k].start = start;
+        start += blocks[k].dim;
+        k += 1;
+    }
+    blocks
+}
+
+/// The order of the parts in the table.
+const fn part_rank(part: Part) -> u8 {
+    match part {
+        Part::Imu => 0,
+        Part::Robot => 1,
+        Part::Clone => 2,
+    }
+}
+
+/// The error-state layout, in order (see the module doc).
+pub const BLOCKS: [Block; 12] = {
+    use Drive::*;
+    use Kind::*;
+    use Part::*;
+    use Prior::*;
+    layout([
+        Block::new("p_wb", 3, Vector, Imu, Zero, Position),
+        Block::new("v_wb", 3, Vector, Imu, AccelNoise, Velocity),
+        Block::new("q_wb", 3, Rotation, Imu, GyroNoise, Attitude),
+        Block::new("accel_bias", 3, Vector, Imu, AccelBiasWalk, AccelBias),
+        Block::new("gyro_bias", 3, Vector, Imu, GyroBiasWalk, GyroBias),
+        Block::new("gravity", 3, Vector, Imu, Zero, Gravity),
+        Block::new("p_bl", 3, Vector, Robot, ContactWalk, Contact),
+        Block::new("p_br", 3, Vector, Robot, ContactWalk, Contact),
+        Block::new("q_rb", 3, Rotation, Robot, RotationWalk, BodyToRobot),
+        Block::new("radii", 2, Vector, Robot, RadiusWalk, Radius),
+        Block::new("clone_p_wb", 3, Vector, Clone, Zero, Copied),
+        Block::new("clone_q_wb", 3, Rotation, Clone, Zero, Copied),
+    ])
+};
+
+/// Whether two names are equal (a `const fn`).
+#[allow(clippy::indexing_slicing)] // i < a.len() == b.len()
+const fn same_name(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// The block called `name`: for the constants below only, where a name
+/// that is not in the table is a compile-time error.
+#[allow(clippy::indexing_slicing, clippy::panic)] // k < BLOCKS.len(); evaluated at compile time
+const fn block(name: &str) -> Block {
+    let mut k = 0;
+    while k < BLOCKS.len() {
+        if same_name(BLOCKS[k].name, name) {
+            return BLOCKS[k];
+        }
+        k += 1;
+    }
+    panic!("no block of that name")
+}
+
+/// The first error-state index of the block called `name` (see [`block`]).
+const fn start(name: &str) -> usize {
+    block(name).start
+}
+
+/// The error-state indices of the blocks of `part`: one contiguous run,
+/// since [`layout`] keeps the parts in order (empty at the start of the
+/// next part if there is none).
+#[allow(clippy::indexing_slicing)] // k < BLOCKS.len()
+pub const fn part_range(part: Part) -> Range<usize> {
+    let (mut first, mut end, mut found) = (0, 0, false);
+    let mut k = 0;
+    while k < BLOCKS.len() {
+        let b = BLOCKS[k];
+        if part_rank(b.part) == part_rank(part) {
+            if !found {
+                first = b.start;
+                found = true;
+            }
+            end = b.start + b.dim;
+        } else if !found && part_rank(b.part) < part_rank(part) {
+            first = b.start + b.dim;
+            end = first;
+        }
+        k += 1;
+    }
+    first..end
+}
+
+/// The error-state columns of the blocks called `names`, in that order
+/// (for a measurement's supporting columns). `N` must be the sum of their
+/// dimensions; for constants only, where a name that is not in the table
+/// or a wrong `N` is a compile-time error.
+#[allow(clippy::indexing_slicing)] // n < N, checked; evaluated at compile time
+pub const fn columns<const N: usize>(names: &[&str]) -> [usize; N] {
+    let mut out = [0; N];
+    let (mut n, mut k) = (0, 0);
+    while k < names.len() {
+        let b = block(names[k]);
+        let mut c = 0;
+        while c < b.dim {
+            assert!(n < N, "more columns than N");
+            out[n] = b.start + c;
+            n += 1;
+            c += 1;
+        }
+        k += 1;
+    }
+    assert!(n == N, "fewer columns than N");
+    out
+}
+
+/// The number of columns of the blocks called `names` (the `N` of
+/// [`columns`]); for constants only.
+#[allow(clippy::indexing_slicing)] // k < names.len(); evaluated at compile time
+pub const fn columns_len(names: &[&str]) -> usize {
+    let (mut n, mut k) = (0, 0);
+    while k < names.len() {
+        n += block(names[k]).dim;
+        k += 1;
+    }
+    n
+}
+
+/// The number of blocks of kind `kind`.
+#[allow(clippy::indexing_slicing)] // k < BLOCKS.len()
+pub const fn count_of(kind: Kind) -> usize {
+    let mut n = 0;
+    let mut k = 0;
+    while k < BLOCKS.len() {
+        if matches!(
+            (BLOCKS[k].kind, kind),
+            (Kind::Vector, Kind::Vector) | (Kind::Rotation, Kind::Rotation)
+        ) {
+            n += 1;
+        }
+        k += 1;
+    }
+    n
+}
+
+/// The starts of the rotation blocks, in the table's order.
+#[allow(clippy::indexing_slicing)] // n < count_of(Rotation) = N
+const fn rotation_starts<const N: usize>() -> [usize; N] {
+    let mut out = [0; N];
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        if matches!(BLOCKS[k].kind, Kind::Rotation) {
+            out[n] = BLOCKS[k].start;
+            n += 1;
+        }
+        k += 1;
+    }
+    out
+}
+
+/// The sum of the blocks' dimensions.
+#[allow(clippy::indexing_slicing)] // k < BLOCKS.len()
+const fn total_dim() -> usize {
+    let (mut n, mut k) = (0, 0);
+    while k < BLOCKS.len() {
+        n += BLOCKS[k].dim;
+        k += 1;
+    }
+    n
+}
+
 /// Error-state index of the IMU position.
-pub const P: usize = 0;
+pub const P: usize = start("p_wb");
 /// Error-state index of the IMU velocity (world frame).
-pub const V: usize = 3;
+pub const V: usize = start("v_wb");
 /// Error-state index of the attitude error (local, body frame).
-pub const TH: usize = 6;
+pub const TH: usize = start("q_wb");
 /// Error-state index of the accelerometer bias.
-pub const BA: usize = 9;
+pub const BA: usize = start("accel_bias");
 /// Error-state index of the gyroscope bias.
-pub const BG: usize = 12;
+pub const BG: usize = start("gyro_bias");
 /// Error-state index of gravity.
-pub const G: usize = 15;
-/// Dimension of the IMU error state.
-pub const IMU_DIM: usize = 18;
+pub const G: usize = start("gravity");
 /// Error-state index of the left wheel contact point (body frame).
-pub const CL: usize = 18;
+pub const CL: usize = start("p_bl");
 /// Error-state index of the right wheel contact point (body frame).
-pub const CR: usize = 21;
+pub const CR: usize = start("p_br");
 /// Error-state index of the body-to-robot rotation error.
-pub const RB: usize = 24;
+pub const RB: usize = start("q_rb");
 /// Error-state index of the left wheel radius; the right one follows.
-pub const RAD: usize = 27;
+pub const RAD: usize = start("radii");
 /// Error-state index of the clone position.
-pub const CP: usize = 29;
+pub const CP: usize = start("clone_p_wb");
 /// Error-state index of the clone attitude error.
-pub const CTH: usize = 32;
+pub const CTH: usize = start("clone_q_wb");
 /// Error-state index of the left wheel radius.
 pub const RAD_L: usize = RAD;
 /// Error-state index of the right wheel radius.
 pub const RAD_R: usize = RAD + 1;
-/// Dimension of the whole error state.
-pub const DIM: usize = 35;
+/// Dimension of the whole error state: the table's total.
+pub const DIM: usize = total_dim();
+/// Dimension of the IMU error state (the leading blocks).
+pub const IMU_DIM: usize = part_range(Part::Imu).end;
 /// Dimension of the states that are not IMU states (clone and robot).
 pub const REST_DIM: usize = DIM - IMU_DIM;
+/// The error-state rows of the pose clone: the last ones.
+pub const CLONE: Range<usize> = part_range(Part::Clone);
+/// Number of rotation blocks.
+pub const ROTATION_COUNT: usize = count_of(Kind::Rotation);
+/// The first indices of the rotation blocks, in the table's order.
+pub const ROTATIONS: [usize; ROTATION_COUNT] = rotation_starts::<ROTATION_COUNT>();
+
+// The clone is a copy of the pose: its position and attitude blocks, in
+// that order, make up the clone part; the last block of the table is the
+// clone's, so `CLONE.end == DIM` (see the module doc).
+const _: () =
+    assert!(CTH == CP + 3 && CLONE.start == CP && CLONE.end == CTH + 3 && CLONE.end == DIM);
+const _: () = assert!(IMU_DIM == part_range(Part::Robot).start);
 
 /// Error-state covariance.
 pub type Covariance = SMatrix<f32, DIM, DIM>;
@@ -203,5 +562,110 @@ pub fn rotate_local(q: &Quat, dtheta: &Vec3) -> Quat {
         Quat::new_unchecked(r * (1.5 - 0.5 * n2))
     } else {
         Quat::new_normalize(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_gives_the_documented_layout() {
+        assert_eq!(
+            [P, V, TH, BA, BG, G, CL, CR, RB, RAD, CP, CTH],
+            [0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 29, 32]
+        );
+        assert_eq!((DIM, IMU_DIM, REST_DIM), (35, 18, 17));
+        assert_eq!(CLONE, 29..35);
+        assert_eq!(ROTATIONS, [TH, RB, CTH]);
+        assert_eq!(part_range(Part::Robot), 18..29);
+    }
+
+    #[test]
+    fn blocks_follow_each_other_without_gaps() {
+        let mut end = 0;
+        for b in BLOCKS {
+            assert_eq!(b.start, end, "{}", b.name);
+            end = b.range().end;
+        }
+        assert_eq!(end, DIM);
+        assert_eq!(block("q_rb").kind, Kind::Rotation);
+        assert_eq!(block("radii").range(), RAD_L..RAD_R + 1);
+    }
+
+    #[test]
+    fn columns_list_the_named_blocks_in_order() {
+        const NAMES: [&str; 2] = ["radii", "q_wb"];
+        const C: [usize; columns_len(&NAMES)] = columns(&NAMES);
+        assert_eq!(C, [RAD, RAD + 1, TH, TH + 1, TH + 2]);
+    }
+
+    #[test]
+    fn layout_fills_in_the_starts_of_a_new_table() {
+        let t = layout([
+            Block::new("a", 4, Kind::Vector, Part::Imu, Drive::Zero, Prior::Copied),
+            Block::new(
+                "b",
+                3,
+                Kind::Rotation,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "c",
+                1,
+                Kind::Vector,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "d",
+                3,
+                Kind::Rotation,
+                Part::Clone,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+        ]);
+        assert_eq!(t.map(|b| b.start), [0, 4, 7, 8]);
+    }
+
+    #[test]
+    #[should_panic(expected = "the IMU blocks come first")]
+    fn layout_refuses_a_clone_before_the_robot() {
+        let _ = layout([
+            Block::new("a", 3, Kind::Vector, Part::Imu, Drive::Zero, Prior::Copied),
+            Block::new(
+                "b",
+                3,
+                Kind::Vector,
+                Part::Clone,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+            Block::new(
+                "c",
+                3,
+                Kind::Vector,
+                Part::Robot,
+                Drive::Zero,
+                Prior::Copied,
+            ),
+        ]);
+    }
+
+    #[test]
+    #[should_panic(expected = "a rotation block has three components")]
+    fn layout_refuses_a_rotation_of_two_components() {
+        let _ = layout([Block::new(
+            "a",
+            2,
+            Kind::Rotation,
+            Part::Imu,
+            Drive::Zero,
+            Prior::Copied,
+        )]);
     }
 }

@@ -22,8 +22,8 @@ const SECONDS: u64 = 60;
 fn config() -> FilterConfig {
     // Encoder-level wheel noise (1000 counts/rev at 50 Hz is ~3 mm/s); the
     // lateral constraint is exact in the simulation, its noise small. (With
-    // the measured rates in the radius Jacobian the radii were biased low
-    // and this test failed: position ANEES 48, velocity 15.)
+    // the measured rates in the radius Jacobian the radii are biased low
+    // and this test fails: position ANEES 48, velocity 15.)
     FilterConfig {
         grip: GripParams::new(0.95, 0.005, 0.001, 10.83, 2.0).unwrap(),
         ..FilterConfig::default()

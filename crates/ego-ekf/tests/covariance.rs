@@ -137,3 +137,47 @@ fn update_matches_joseph_form_and_gates() {
         Err(Reject::NonFinite)
     );
 }
+
+#[test]
+fn the_initial_covariance_follows_the_state_table() {
+    use ego_ekf::config::{InitConfig, RobotPrior};
+    use ego_ekf::covariance::initial_variances;
+    use ego_ekf::state::{BA, BG, CL, CR, G, V};
+    let init = InitConfig {
+        position_std: 2.0,
+        velocity_std: 3.0,
+        tilt_std: 5.0,
+        yaw_std: 7.0,
+        accel_bias_std: 11.0,
+        gyro_bias_std: 13.0,
+        gravity_std: 17.0,
+        ..InitConfig::default()
+    };
+    let robot = RobotPrior {
+        contact_std: 19.0,
+        rotation_std: 23.0,
+        radius_std: 29.0,
+        ..RobotPrior::default()
+    };
+    let d = initial_variances(&init, &robot);
+    let stds = [
+        (P, 3, 2.0),
+        (V, 3, 3.0),
+        (TH, 2, 5.0),
+        (TH + 2, 1, 7.0),
+        (BA, 3, 11.0),
+        (BG, 3, 13.0),
+        (G, 3, 17.0),
+        (CL, 3, 19.0),
+        (CR, 3, 19.0),
+        (RB, 3, 23.0),
+        (RAD, 2, 29.0),
+        (CP, 6, 0.0),
+    ];
+    let mut expected = ErrorState::zeros();
+    for (start, len, std) in stds {
+        expected.rows_mut(start, len).fill(std * std);
+    }
+    assert_eq!(d, expected);
+    assert_eq!(CTH, CP + 3);
+}

@@ -124,3 +124,42 @@ fn transition_matches_finite_differences() {
         }
     }
 }
+
+#[test]
+fn process_noise_follows_the_state_table() {
+    use ego_ekf::state::{BA, BG, CL, CP, CR, G, P, RAD, RB, TH, V};
+    let imu = ImuNoise {
+        accel_density: 2.0,
+        gyro_density: 3.0,
+        accel_random_walk: 5.0,
+        gyro_random_walk: 7.0,
+    };
+    let robot = RobotPrior {
+        contact_random_walk: 11.0,
+        rotation_random_walk: 13.0,
+        radius_random_walk: 17.0,
+        ..RobotPrior::default()
+    };
+    let q = process_noise(&imu, &robot, 0.5);
+    let expected = [
+        (P, 3, 0.0),
+        (V, 3, 2.0),
+        (TH, 3, 3.0),
+        (BA, 3, 5.0),
+        (BG, 3, 7.0),
+        (G, 3, 0.0),
+        (CL, 3, 11.0),
+        (CR, 3, 11.0),
+        (RB, 3, 13.0),
+        (RAD, 2, 17.0),
+        (CP, 6, 0.0),
+    ];
+    let mut covered = 0;
+    for (start, len, density) in expected {
+        for i in start..start + len {
+            assert_eq!(q[i], density * density * 0.5, "row {i}");
+        }
+        covered += len;
+    }
+    assert_eq!(covered, DIM);
+}

@@ -17,6 +17,27 @@
 //! Sources: PixArt PMW3901MB-TXQT datasheet; Bitcraze `Bitcraze_PMW3901`;
 //! Pimoroni `pmw3901-python` (`PMW3901`, `PAA5100`, `frame_capture`); PX4
 //! `pmw3901` driver (counts per radian).
+//!
+//! # Example: a Motion_Burst into a vocabulary sample
+//!
+//! The driver reads the 12 burst bytes over SPI; decoding them is a pure
+//! function. The deltas come low byte first, the shutter high byte first.
+//!
+//! ```
+//! use flow_sensor::MotionBurst;
+//! use vslam_core::Timestamp;
+//!
+//! // Motion (MOT set), Observation, dX = -3 (LE), dY = 258 (LE), SQUAL 80,
+//! // RawData_Sum, Max, Min, Shutter 0x0123 (BE).
+//! let bytes = [0x80, 0xBF, 0xFD, 0xFF, 0x02, 0x01, 80, 60, 120, 10, 0x01, 0x23];
+//! let burst = MotionBurst::from_bytes(&bytes);
+//! assert!(burst.has_motion());
+//! assert_eq!((burst.delta_x, burst.delta_y, burst.shutter), (-3, 258, 0x0123));
+//!
+//! let sample = burst.to_sample(Timestamp::from_nanos(10_000_000));
+//! assert_eq!(sample.dx, -3);
+//! assert!(sample.is_valid()); // the datasheet's SQUAL / shutter rule
+//! ```
 #![no_std]
 #![cfg_attr(
     not(test),

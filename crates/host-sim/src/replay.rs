@@ -16,7 +16,7 @@ use traction::ego_ekf::events::JoltEvent;
 use traction::ego_ekf::surface::{
     ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
 };
-use traction::estimator::{Estimator, EstimatorConfig, Processed, SampleStream};
+use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
 use traction::vslam_core::decompose::PinholeIntrinsics;
@@ -26,7 +26,7 @@ use traction::vslam_core::robot::{
     FlowDescription, ImuDescription, ImuNoise, MountedSensor, RobotDescription, RobotError, Wheels,
 };
 use traction::vslam_core::scale::FrameDecision;
-use traction::vslam_core::{Reject, SampleCounts, Timestamp};
+use traction::vslam_core::{Reject, SampleCounts, StreamCounts, Timestamp};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 /// What a replay produced.
@@ -122,18 +122,15 @@ fn outcome_name<T>(r: &Result<T, Reject>) -> &'static str {
 }
 
 fn processed_outcome(p: &Processed) -> (Stream, Timestamp, &'static str) {
-    match p {
-        Processed::Imu { t, outcome, .. } => (Stream::Imu, *t, outcome_name(outcome)),
-        Processed::Wheel { t, outcome } => (
-            Stream::Wheel,
-            *t,
-            match outcome {
-                Ok(inn) if inn.gated => "gated",
-                o => outcome_name(o),
-            },
-        ),
-        Processed::Flow { t, outcome } => (Stream::Flow, *t, outcome_name(outcome)),
-    }
+    let name = match p {
+        Processed::Imu { outcome, .. } => outcome_name(outcome),
+        Processed::Wheel { outcome, .. } => match outcome {
+            Ok(inn) if inn.gated => "gated",
+            o => outcome_name(o),
+        },
+        Processed::Flow { outcome, .. } => outcome_name(outcome),
+    };
+    (p.stream(), p.t(), name)
 }
 
 fn extrinsics(path: &Path, m: &[f32; 16]) -> Result<Extrinsics, CliError> {
@@ -167,6 +164,16 @@ fn counts_json(c: &SampleCounts) -> Value {
         }
     }
     json!({"seen": c.seen(), "fused": c.fused(), "gated": c.gated(), "rejected": rejected})
+}
+
+/// `counts` of `report.json`: every stream of the registry by its name,
+/// zeros for a stream the run did not have.
+fn stream_counts_json(c: &StreamCounts) -> Value {
+    Value::Object(
+        c.iter()
+            .map(|(s, c)| (s.name().to_string(), counts_json(c)))
+            .collect(),
+    )
 }
 
 fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
@@ -529,12 +536,7 @@ pub fn replay_feed(
                 let Some(f) = feed.and_then(|f| f.failed.get(*k)) else {
                     continue;
                 };
-                let stream = match f.stream {
-                    Stream::Imu => SampleStream::Imu,
-                    Stream::Wheel => SampleStream::Wheel,
-                    _ => SampleStream::Flow,
-                };
-                est.reject_read(stream, f.reason);
+                est.reject_read(f.stream, f.reason);
                 outcomes.push((f.stream, f.t, f.reason.name()));
             }
             Next::Camera(k) => {
@@ -620,13 +622,7 @@ pub fn replay_feed(
     let ekf = est.ekf();
     let report = json!({
         "missing_sensors": missing,
-        "counts": {
-            "imu": counts_json(&c.imu),
-            "wheel": counts_json(&c.wheel),
-            "flow": counts_json(&c.flow),
-            "camera": counts_json(&est.camera_counts()),
-            "segmentation": counts_json(&c.segmentation),
-        },
+        "counts": stream_counts_json(&c),
         "filter_counts": {
             "imu": counts_json(ekf.imu_counts()),
             "wheel": counts_json(ekf.wheel_counts()),

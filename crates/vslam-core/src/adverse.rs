@@ -19,9 +19,14 @@
 use core::fmt;
 
 use crate::geometry::Vec2;
+use crate::stream::Stream;
 use crate::time::Timestamp;
 
-/// The sensors the memory tracks.
+/// The sensors the memory tracks: the [`Stream`]s whose misbehaviour is
+/// remembered by place. Its own slot order is part of the exported record
+/// (the levels of sensor `k` are the `k`-th block), so it is not the
+/// registry's order; [`SensorKind::stream`] and [`SensorKind::of`] map
+/// between the two.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum SensorKind {
@@ -45,6 +50,33 @@ impl SensorKind {
         SensorKind::Camera,
         SensorKind::Imu,
     ];
+
+    /// The stream of this sensor's samples.
+    pub const fn stream(self) -> Stream {
+        match self {
+            SensorKind::Wheel => Stream::Wheel,
+            SensorKind::Flow => Stream::Flow,
+            SensorKind::Camera => Stream::Camera,
+            SensorKind::Imu => Stream::Imu,
+        }
+    }
+
+    /// The sensor the memory tracks for `stream`, if it tracks one (tracking
+    /// is opt-in: a new stream is not remembered until it gets a slot here).
+    pub const fn of(stream: Stream) -> Option<SensorKind> {
+        match stream {
+            Stream::Wheel => Some(SensorKind::Wheel),
+            Stream::Flow => Some(SensorKind::Flow),
+            Stream::Camera => Some(SensorKind::Camera),
+            Stream::Imu => Some(SensorKind::Imu),
+            _ => None,
+        }
+    }
+
+    /// The stream's report name (see [`Stream::name`]).
+    pub const fn name(self) -> &'static str {
+        self.stream().name()
+    }
 }
 
 /// What went wrong.
@@ -425,5 +457,24 @@ impl Reader<'_> {
     }
     fn f32(&mut self) -> Option<f32> {
         self.take().map(f32::from_le_bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensors_map_to_streams_and_back() {
+        for (i, k) in SensorKind::ALL.iter().enumerate() {
+            assert_eq!(*k as usize, i);
+            assert_eq!(SensorKind::of(k.stream()), Some(*k));
+            assert_eq!(k.name(), k.stream().name());
+        }
+        let tracked = Stream::ALL
+            .iter()
+            .filter(|s| SensorKind::of(**s).is_some())
+            .count();
+        assert_eq!(tracked, SensorKind::COUNT);
     }
 }

@@ -156,11 +156,77 @@ impl SampleCounts {
             .copied()
             .zip(self.rejected.iter().copied())
     }
+
+    /// Adds `other`'s counts to these (saturating).
+    pub fn add(&mut self, other: &SampleCounts) {
+        self.fused = self.fused.saturating_add(other.fused);
+        for (c, o) in self.rejected.iter_mut().zip(other.rejected.iter()) {
+            *c = c.saturating_add(*o);
+        }
+    }
+}
+
+/// `fused 12, gated 3, rejected: non_finite 2, out_of_order 1`: the fused and
+/// gated counts, then every other reason with a count, in counter order, by
+/// its [`Reject::name`].
+impl fmt::Display for SampleCounts {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "fused {}, gated {}", self.fused, self.gated())?;
+        let mut others = self
+            .by_reason()
+            .filter(|(r, n)| *r != Reject::Gated && *n > 0)
+            .peekable();
+        if others.peek().is_some() {
+            f.write_str(", rejected:")?;
+            for (i, (r, n)) in others.enumerate() {
+                let sep = if i == 0 { " " } else { ", " };
+                write!(f, "{sep}{r} {n}")?;
+            }
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn reasons_print_their_names() {
+        assert_eq!(Reject::NonFinite.to_string(), "non_finite");
+        assert_eq!(Reject::OutOfOrder.to_string(), "out_of_order");
+        assert_eq!(Reject::NotReady.to_string(), "not_ready");
+        for r in Reject::ALL {
+            assert_eq!(r.to_string(), r.name());
+        }
+    }
+
+    #[test]
+    fn counts_print_fused_gated_and_each_reason() {
+        let mut c = SampleCounts::new();
+        assert_eq!(c.to_string(), "fused 0, gated 0");
+        for _ in 0..12 {
+            c.fused_one();
+        }
+        for _ in 0..3 {
+            c.rejected_one(Reject::Gated);
+        }
+        c.rejected_one(Reject::OutOfOrder);
+        c.rejected_one(Reject::NonFinite);
+        c.rejected_one(Reject::NonFinite);
+        assert_eq!(
+            c.to_string(),
+            "fused 12, gated 3, rejected: non_finite 2, out_of_order 1"
+        );
+        let mut total = SampleCounts::new();
+        total.add(&c);
+        total.add(&c);
+        assert_eq!(total.fused(), 24);
+        assert_eq!(total.rejected(Reject::NonFinite), 4);
+        assert_eq!(total.seen(), 2 * c.seen());
+    }
 
     #[test]
     fn every_reason_has_its_own_slot_and_name() {

@@ -22,25 +22,36 @@
 //! resets its velocity to optical flow after a fusion timeout, a run of
 //! [`FlowConfig::velocity_reset_after_gated`] consecutive gated reports of valid
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
-//! horizontal velocity to the flow's measurement with the measurement's variance; the reset is counted ([`FlowFusion::resets`]) and
-//! reported ([`FlowFused::reset`]).
+//! horizontal velocity to the flow's measurement with the measurement's
+//! variance (when: [`crate::recovery::flow_reset_due`]; the reset:
+//! [`crate::covariance::reset_velocity`]); the reset is counted
+//! ([`FlowFusion::resets`]) and reported ([`FlowFused::reset`]).
 //!
 //! Reports of valid quality and plausible speed, fused or gated, are averaged
 //! over a short window ([`FlowWindow`]) as a witness of the robot's velocity
 //! ([`FlowFusion::witness`]) for the wheel side's lockout recovery
 //! ([`crate::recovery`]).
+//!
+//! Every report, fused, gated, reset to or refused, leaves its
+//! [`FlowStatus`] ([`FlowFusion::status`]).
 
 use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
+use crate::aid_status::{
+    AidOutcome, AidStatus, FlowStatus, innovation_covariance, innovation_variances, nis,
+};
 use crate::config::FlowConfig;
-use crate::flow::model::{flow_measurement, flow_std, flow_velocity, reset_velocity};
-use crate::recovery::{FlowWindow, FlowWitness};
+use crate::covariance::reset_velocity;
+use crate::flow::model::{flow_measurement, flow_std, flow_velocity};
+use crate::recovery::{FlowWindow, FlowWitness, flow_reset_due};
 use crate::state::{Covariance, NominalState, Vec3};
-use crate::update::gated_update;
+use crate::update::gated_update_with;
 
-/// What a fused flow report said.
+/// What a fused flow report said: the short answer of
+/// [`crate::EgoEkf::fuse_flow`]; the report's full record is its
+/// [`FlowStatus`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowFused {
     /// Measured robot-origin velocity (x, y), robot frame, m/s.
@@ -62,6 +73,7 @@ pub struct FlowFusion {
     gated_run: u16,
     resets: u32,
     window: FlowWindow,
+    status: Option<FlowStatus>,
 }
 
 impl FlowFusion {
@@ -77,6 +89,7 @@ impl FlowFusion {
             gated_run: 0,
             resets: 0,
             window: FlowWindow::new(window_ns, floor_std),
+            status: None,
         }
     }
 
@@ -96,10 +109,27 @@ impl FlowFusion {
         self.window.witness(t)
     }
 
-    /// Counts a sample the filter refused before it reached the maths.
-    pub fn refuse(&mut self, reason: Reject) -> Reject {
+    /// The status after the latest report (fused, gated, reset to or
+    /// refused).
+    pub fn status(&self) -> Option<&FlowStatus> {
+        self.status.as_ref()
+    }
+
+    /// Counts a report taken at `t` that the filter refused before it
+    /// reached the maths.
+    pub fn refuse(&mut self, t: Timestamp, reason: Reject) -> Reject {
         self.counts.rejected_one(reason);
+        self.keep(AidStatus::new(
+            t,
+            AidOutcome::Rejected(reason),
+            self.status.as_ref(),
+        ));
         reason
+    }
+
+    /// Keeps `status` as the latest, with the current gated run.
+    fn keep(&mut self, status: FlowStatus) {
+        self.status = Some(status.with_gated_run(self.gated_run));
     }
 
     /// Checks, gates and fuses one report at the filter time `now`; see the
@@ -113,20 +143,29 @@ impl FlowFusion {
         config: &FlowConfig,
         now: Timestamp,
     ) -> Result<FlowFused, Reject> {
-        let outcome = self.fuse_inner(x, p, gyro, sample, config, now);
+        let outcome = match self.check(x, gyro, sample, config, now) {
+            Ok(report) => self.gate_and_fuse(x, p, gyro, &report, config),
+            Err(r) => {
+                let previous = self.status.as_ref();
+                let status = AidStatus::new(sample.t, AidOutcome::of::<()>(&Err(r)), previous);
+                self.keep(status);
+                Err(r)
+            }
+        };
         self.counts.record(outcome.map(|_| ()));
         outcome
     }
 
-    fn fuse_inner(
+    /// The checks before the gate: time, quality, the velocity and its
+    /// noise, the witness, the report's age against the filter's time.
+    fn check(
         &mut self,
-        x: &mut NominalState,
-        p: &mut Covariance,
+        x: &NominalState,
         gyro: &Vec3,
         sample: &FlowSample,
         config: &FlowConfig,
         now: Timestamp,
-    ) -> Result<FlowFused, Reject> {
+    ) -> Result<Checked, Reject> {
         // The counts are since the previous report: the first one only
         // opens the interval.
         let dt = self.clock.accept(sample.t)?.ok_or(Reject::NotReady)?;
@@ -160,36 +199,85 @@ impl FlowFusion {
             }
             _ => {}
         }
+        Ok(Checked {
+            t: sample.t,
+            z,
+            std,
+            plausible,
+        })
+    }
+
+    /// Gates and fuses a checked report, or resets the velocity to it at
+    /// the end of a run of gated reports; keeps its status.
+    fn gate_and_fuse(
+        &mut self,
+        x: &mut NominalState,
+        p: &mut Covariance,
+        gyro: &Vec3,
+        report: &Checked,
+        config: &FlowConfig,
+    ) -> Result<FlowFused, Reject> {
+        let Checked { t, z, std, .. } = *report;
         let m = flow_measurement(x, gyro, &z, std);
-        match gated_update(x, p, &m, Some(config.gate)) {
-            Ok(report) => {
+        let pht = m.p_ht(p);
+        let result = gated_update_with(x, p, &m, &pht, Some(config.gate));
+        let (outcome, nis) = match result {
+            Ok(update) => {
                 self.gated_run = 0;
-                Ok(FlowFused {
-                    velocity: z,
-                    std,
-                    nis: report.nis,
-                    reset: false,
-                })
+                (
+                    Ok(FlowFused {
+                        velocity: z,
+                        std,
+                        nis: update.nis,
+                        reset: false,
+                    }),
+                    update.nis,
+                )
             }
             Err(Reject::Gated) => {
                 self.gated_run = self.gated_run.saturating_add(1);
-                if config.velocity_reset_after_gated == 0
-                    || self.gated_run < config.velocity_reset_after_gated
-                    || !plausible
-                {
-                    return Err(Reject::Gated);
+                let nis = nis(&innovation_covariance(&m, &pht), &m.residual);
+                if flow_reset_due(config, self.gated_run, report.plausible) {
+                    self.gated_run = 0;
+                    self.resets = self.resets.saturating_add(1);
+                    reset_velocity(x, p, gyro, &z, std);
+                    (
+                        Ok(FlowFused {
+                            velocity: z,
+                            std,
+                            nis: f32::NAN,
+                            reset: true,
+                        }),
+                        nis,
+                    )
+                } else {
+                    (Err(Reject::Gated), nis)
                 }
-                self.gated_run = 0;
-                self.resets = self.resets.saturating_add(1);
-                reset_velocity(x, p, gyro, &z, std);
-                Ok(FlowFused {
-                    velocity: z,
-                    std,
-                    nis: f32::NAN,
-                    reset: true,
-                })
             }
-            Err(r) => Err(r),
-        }
+            Err(r) => (Err(r), f32::NAN),
+        };
+        let aid_outcome = match outcome {
+            Ok(FlowFused { reset: true, .. }) => AidOutcome::Reset,
+            other => AidOutcome::of(&other),
+        };
+        let var = std * std;
+        let status = AidStatus::new(t, aid_outcome, self.status.as_ref())
+            .with_observation([z.x, z.y], [var, var])
+            .with_innovation([m.residual.x, m.residual.y], innovation_variances(&m, &pht))
+            .with_test(nis, Some(config.gate));
+        self.keep(status);
+        outcome
     }
+}
+
+/// A report that passed the checks before the gate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Checked {
+    t: Timestamp,
+    /// Robot-origin horizontal velocity, robot frame, m/s.
+    z: Vector2<f32>,
+    /// Standard deviation of each component, m/s.
+    std: f32,
+    /// Whether the speed is plausible (a reset may use it).
+    plausible: bool,
 }

@@ -90,28 +90,3 @@ pub fn flow_measurement(
         noise: SMatrix::<f32, 2, 2>::identity() * (std * std),
     }
 }
-
-/// Resets the velocity so that the robot-origin horizontal velocity equals
-/// the flow's `z` (the vertical robot-frame component is kept), and replaces
-/// the velocity's covariance by `std^2` with no correlation to the rest
-/// (which keeps `P` symmetric positive definite).
-pub fn reset_velocity(
-    x: &mut NominalState,
-    p: &mut crate::state::Covariance,
-    gyro: &Vec3,
-    z: &Vector2<f32>,
-    std: f32,
-) {
-    let r_rb = x.q_rb.to_rotation_matrix().into_inner();
-    let r_wb = x.q_wb.to_rotation_matrix().into_inner();
-    let p_mid = x.p_b_robot();
-    let v_b = r_wb.transpose() * x.v_wb;
-    let w_mid = r_rb * (v_b + gyro.cross(&p_mid));
-    let u_new = r_rb.transpose() * Vec3::new(z.x, z.y, w_mid.z);
-    x.v_wb = r_wb * (u_new - gyro.cross(&p_mid));
-    p.fixed_rows_mut::<3>(V).fill(0.0);
-    p.fixed_columns_mut::<3>(V).fill(0.0);
-    for i in 0..3 {
-        p[(V + i, V + i)] = std * std;
-    }
-}

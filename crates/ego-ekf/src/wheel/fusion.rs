@@ -13,20 +13,27 @@
 //! of it, a velocity the state has not reached yet (the IMU lags or went
 //! silent: [`Reject::NotReady`]). Both are counted and change nothing.
 //!
-//! Consecutive gated samples form a [`GatedRun`]; the filter re-examines its
-//! velocity when the run is due (see [`crate::recovery`]).
+//! Consecutive gated samples form a [`crate::recovery::GatedRun`], watched
+//! by [`WheelWatch`]; the filter re-examines its velocity when the run is
+//! due (see [`crate::recovery`]).
+//!
+//! Every sample, fused, gated or refused, leaves its [`WheelStatus`]
+//! ([`WheelFusion::status`]): forward and differential rows.
 
 use vslam_core::sensors::WheelRates;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
+use crate::aid_status::{AidOutcome, AidStatus, WheelStatus};
 use crate::config::RecoveryConfig;
 use crate::grip::GripParams;
-use crate::recovery::{GatedRun, Verdict};
+use crate::recovery::{Verdict, WheelWatch};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::wheel::model::wheel_rows;
 use crate::wheel::update::{WheelUpdate, update};
 
-/// The forward wheel-velocity innovation of one wheel sample.
+/// The forward wheel-velocity innovation of one wheel sample: the short
+/// answer of [`crate::EgoEkf::fuse_wheel`]; the sample's full record is its
+/// [`WheelStatus`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelInnovation {
     /// Forward innovation (measured minus predicted forward speed), m/s.
@@ -47,13 +54,11 @@ pub struct WheelInnovation {
 pub struct WheelFusion {
     clock: SampleClock,
     counts: SampleCounts,
-    last: Option<WheelInnovation>,
+    status: Option<WheelStatus>,
     stopped: bool,
     stop_rate: f32,
     max_age_ns: u64,
-    run: GatedRun,
-    last_fused: Option<Timestamp>,
-    resumed: Option<Timestamp>,
+    watch: WheelWatch,
 }
 
 impl WheelFusion {
@@ -64,24 +69,23 @@ impl WheelFusion {
         WheelFusion {
             clock: SampleClock::new(max_dt_ns),
             counts: SampleCounts::new(),
-            last: None,
+            status: None,
             stopped: false,
             stop_rate,
             max_age_ns,
-            run: GatedRun::default(),
-            last_fused: None,
-            resumed: None,
+            watch: WheelWatch::default(),
         }
     }
 
-    /// The current run of gated samples.
-    pub fn gated_run(&self) -> &GatedRun {
-        &self.run
+    /// The current run of gated samples and the time of the last fused one
+    /// (see [`crate::recovery`]).
+    pub fn watch(&self) -> &WheelWatch {
+        &self.watch
     }
 
     /// Ends the run of gated samples (after a velocity reset).
     pub fn end_run(&mut self) {
-        self.run.clear();
+        self.watch.end_run();
     }
 
     /// Samples fused, gated and rejected by reason.
@@ -89,9 +93,9 @@ impl WheelFusion {
         &self.counts
     }
 
-    /// The latest innovation.
-    pub fn last(&self) -> Option<WheelInnovation> {
-        self.last
+    /// The status after the latest sample (fused, gated or refused).
+    pub fn status(&self) -> Option<&WheelStatus> {
+        self.status.as_ref()
     }
 
     /// Whether the latest accepted sample said both wheels stand still.
@@ -99,9 +103,14 @@ impl WheelFusion {
         self.stopped
     }
 
-    /// Counts a sample the filter refused before it reached the maths.
-    pub fn refuse(&mut self, reason: Reject) -> Reject {
+    /// Counts a sample taken at `t` that the filter refused before it
+    /// reached the maths.
+    pub fn refuse(&mut self, t: Timestamp, reason: Reject) -> Reject {
         self.counts.rejected_one(reason);
+        self.status = Some(
+            AidStatus::new(t, AidOutcome::Rejected(reason), self.status.as_ref())
+                .with_gated_run(self.watch.run().len()),
+        );
         reason
     }
 
@@ -119,36 +128,11 @@ impl WheelFusion {
         now: Timestamp,
         recovery: &RecoveryConfig,
     ) -> Result<WheelInnovation, Reject> {
-        let outcome = self.fuse_inner(x, p, gyro, rates, grip, now);
+        let checked = self.fuse_inner(x, p, gyro, rates, grip, now);
+        let outcome = checked.map(|(inn, _)| inn);
         match outcome {
-            Ok(inn) if inn.gated => {
-                // Silence: nothing fused for a while, or fusing resumed only
-                // just now after such a while (the first samples back may
-                // pass the gate and leave the rest of the offset).
-                let within = |since: Option<Timestamp>| {
-                    since.is_some_and(|s| {
-                        rates
-                            .t
-                            .nanos_since(s)
-                            .is_some_and(|d| d <= recovery.silence_ns)
-                    })
-                };
-                let after_silence = !within(self.last_fused) || within(self.resumed);
-                self.run.push(recovery, inn.forward, after_silence);
-            }
-            Ok(_) => {
-                let silent_before = !self.last_fused.is_some_and(|f| {
-                    rates
-                        .t
-                        .nanos_since(f)
-                        .is_some_and(|d| d <= recovery.silence_ns)
-                });
-                if silent_before {
-                    self.resumed = Some(rates.t);
-                }
-                self.run.clear();
-                self.last_fused = Some(rates.t);
-            }
+            Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t, inn.forward),
+            Ok(_) => self.watch.fused(recovery, rates.t),
             Err(_) => {}
         }
         match outcome {
@@ -156,6 +140,25 @@ impl WheelFusion {
             Ok(_) => self.counts.fused_one(),
             Err(r) => self.counts.rejected_one(r),
         }
+        let previous = self.status.as_ref();
+        let status = match checked {
+            Ok((inn, rows)) => {
+                let outcome = if inn.gated {
+                    AidOutcome::Gated
+                } else {
+                    AidOutcome::Fused
+                };
+                AidStatus::new(rates.t, outcome, previous)
+                    .with_observation(rows.observation, rows.observation_var)
+                    .with_innovation(
+                        [inn.forward, rows.update.differential],
+                        [inn.forward_var, rows.update.differential_var],
+                    )
+                    .with_test(rows.nis(), Some(grip.forward_gate()))
+            }
+            Err(r) => AidStatus::new(rates.t, AidOutcome::of::<()>(&Err(r)), previous),
+        };
+        self.status = Some(status.with_gated_run(self.watch.run().len()));
         outcome
     }
 
@@ -167,7 +170,7 @@ impl WheelFusion {
         rates: &WheelRates,
         grip: &GripParams,
         now: Timestamp,
-    ) -> Result<WheelInnovation, Reject> {
+    ) -> Result<(WheelInnovation, GatedRows), Reject> {
         if !(rates.left.is_finite() && rates.right.is_finite()) {
             return Err(Reject::NonFinite);
         }
@@ -188,19 +191,40 @@ impl WheelFusion {
             libm::fabsf(rates.left) < self.stop_rate && libm::fabsf(rates.right) < self.stop_rate;
         let rows = wheel_rows(x, gyro, rates, grip);
         let speed = 0.5 * (x.radius_left * rates.left + x.radius_right * rates.right);
-        let WheelUpdate {
-            forward,
-            forward_var: var_fwd,
-            gated,
-        } = update(x, p, &rows, grip.forward_gate())?;
+        let differential = x.radius_right * rates.right - x.radius_left * rates.left;
+        let [noise_fwd, noise_diff, ..] = rows.noise;
+        let u = update(x, p, &rows, grip.forward_gate())?;
         let inn = WheelInnovation {
-            forward,
-            forward_var: var_fwd,
-            gated,
+            forward: u.forward,
+            forward_var: u.forward_var,
+            gated: u.gated,
             speed,
             recovery: None,
         };
-        self.last = Some(inn);
-        Ok(inn)
+        let gated_rows = GatedRows {
+            observation: [speed, differential],
+            observation_var: [noise_fwd, noise_diff],
+            update: u,
+        };
+        Ok((inn, gated_rows))
+    }
+}
+
+/// The gated rows' side of one sample, for its [`WheelStatus`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GatedRows {
+    observation: [f32; 2],
+    observation_var: [f32; 2],
+    update: WheelUpdate,
+}
+
+impl GatedRows {
+    /// The larger of the forward and differential 1-DOF statistics (each
+    /// is gated on its own).
+    fn nis(&self) -> f32 {
+        let u = &self.update;
+        let forward = u.forward * u.forward / u.forward_var;
+        let differential = u.differential * u.differential / u.differential_var;
+        forward.max(differential)
     }
 }

@@ -30,12 +30,14 @@ use vslam_core::sensors::WheelRates;
 
 use crate::covariance::skew;
 use crate::grip::GripParams;
-use crate::lanes::Lane;
+use crate::kernels::lanes::Lane;
 #[cfg(not(target_arch = "arm"))]
-use crate::lanes::{Lanes, starts};
-use crate::state::{BG, CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3};
+use crate::kernels::lanes::{Lanes, starts};
 #[cfg(target_arch = "arm")]
-use crate::update::CLONE;
+use crate::state::CLONE;
+use crate::state::{
+    CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3, columns, columns_len,
+};
 use crate::update::Measurement;
 
 /// Row of the forward component.
@@ -50,30 +52,11 @@ pub const VERTICAL: usize = 3;
 /// The error-state columns where a wheel row can be nonzero, in the order
 /// of [`WheelRows::h`]: velocity, attitude, gyroscope bias, both contact
 /// points, body-to-robot rotation, both radii.
-pub const SUPPORT: [usize; SUPPORT_LEN] = [
-    V,
-    V + 1,
-    V + 2,
-    TH,
-    TH + 1,
-    TH + 2,
-    BG,
-    BG + 1,
-    BG + 2,
-    CL,
-    CL + 1,
-    CL + 2,
-    CR,
-    CR + 1,
-    CR + 2,
-    RB,
-    RB + 1,
-    RB + 2,
-    RAD,
-    RAD + 1,
-];
+pub const SUPPORT: [usize; SUPPORT_LEN] = columns(&SUPPORT_BLOCKS);
 /// Number of columns in [`SUPPORT`].
-pub const SUPPORT_LEN: usize = 20;
+pub const SUPPORT_LEN: usize = columns_len(&SUPPORT_BLOCKS);
+/// The state blocks of [`SUPPORT`].
+const SUPPORT_BLOCKS: [&str; 7] = ["v_wb", "q_wb", "gyro_bias", "p_bl", "p_br", "q_rb", "radii"];
 
 #[cfg(any(target_arch = "arm", test))]
 /// The entries of a covariance column at [`SUPPORT`] (by symmetry, those

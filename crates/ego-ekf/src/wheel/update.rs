@@ -34,6 +34,10 @@ pub struct WheelUpdate {
     pub forward: f32,
     /// Its predicted variance `H P H^T + R` under the prior, (m/s)^2.
     pub forward_var: f32,
+    /// Differential innovation, m/s.
+    pub differential: f32,
+    /// Its predicted variance under the prior, (m/s)^2.
+    pub differential_var: f32,
     /// Whether the forward or the differential row failed the gate (then
     /// only the lateral and vertical rows were fused).
     pub gated: bool,
@@ -81,6 +85,8 @@ pub fn update(
     Ok(WheelUpdate {
         forward,
         forward_var: var_fwd,
+        differential: diff,
+        differential_var: var_diff,
         gated,
     })
 }

@@ -3,19 +3,17 @@
 //! Still means, for `still_samples` IMU samples in a row: the latest wheel
 //! sample reports both wheels stopped, the bias-corrected gyro norm is small
 //! and the specific-force norm is close to gravity. While still, the clone
-//! is frozen and a zero-velocity update is due every `every` IMU samples.
-
-use vslam_core::SampleCounts;
+//! is frozen and a zero-velocity update is due every `every` IMU samples
+//! (made by [`crate::zupt::fusion`]).
 
 use crate::config::ZuptConfig;
 use crate::state::Vec3;
 
-/// The still detector and the zero-velocity update's counters.
+/// The still detector.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StillDetector {
     run: u16,
     since_update: u16,
-    counts: SampleCounts,
 }
 
 impl Default for StillDetector {
@@ -30,7 +28,6 @@ impl StillDetector {
         StillDetector {
             run: 0,
             since_update: 0,
-            counts: SampleCounts::new(),
         }
     }
 
@@ -79,15 +76,5 @@ impl StillDetector {
         } else {
             false
         }
-    }
-
-    /// Zero-velocity updates fused and rejected.
-    pub fn counts(&self) -> &SampleCounts {
-        &self.counts
-    }
-
-    /// Counts the outcome of one zero-velocity update.
-    pub fn record(&mut self, outcome: Result<(), vslam_core::Reject>) {
-        self.counts.record(outcome);
     }
 }

@@ -2,9 +2,9 @@
 //! misbehave, and the reads that failed because of it. The drivers see
 //! the faults through their real protocols (`sim::drivers`).
 
-use super::kind::{FaultKind, Stage, Stream};
+use super::kind::{FaultKind, Stage};
 use super::spec::{FaultPlan, FaultSpec};
-use traction::vslam_core::{Reject, Timestamp};
+use traction::vslam_core::{Reject, Stream, Timestamp};
 
 /// A read that produced no sample: the driver's error turned into its reason.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,7 +33,7 @@ impl ChipSchedule {
         let faults = plan
             .select(|f| {
                 f.kind.stage() == Stage::Chip
-                    && f.kind.stream() == stream
+                    && f.kind.stream() == Some(stream)
                     && f.kind != FaultKind::WheelWrap
             })
             .map(|(i, f)| (i, *f, f.count))

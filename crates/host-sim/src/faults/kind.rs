@@ -1,35 +1,33 @@
 //! The fault kinds: what each one does, which stream it hits, where it is
 //! injected, and the outcome every sample it spoils must end in.
 
-use traction::vslam_core::Reject;
+use traction::vslam_core::{Reject, Stream};
 
-/// The stream a fault spoils.
+/// What a fault spoils: the samples of one stream of the registry, or the
+/// robot's motion itself.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Stream {
-    /// IMU samples (250 Hz).
-    Imu,
-    /// Wheel encoder counts (50 Hz).
-    Wheel,
-    /// Optical-flow reports (100 Hz).
-    Flow,
-    /// Upward camera frames (10 Hz).
-    Camera,
-    /// Segmentation label maps (2 Hz).
-    Segmentation,
+pub enum Target {
+    /// The samples of one stream.
+    Stream(Stream),
     /// The robot's motion itself (the truth changes; every sensor sees it).
     Motion,
 }
 
-impl Stream {
-    /// Name used in reports (`counts` keys of `report.json`).
+impl Target {
+    /// Name used in reports (`stream` of a fault in `report.json`): the
+    /// stream's name, or `motion`.
     pub fn name(self) -> &'static str {
         match self {
-            Stream::Imu => "imu",
-            Stream::Wheel => "wheel",
-            Stream::Flow => "flow",
-            Stream::Camera => "camera",
-            Stream::Segmentation => "segmentation",
-            Stream::Motion => "motion",
+            Target::Stream(s) => s.name(),
+            Target::Motion => "motion",
+        }
+    }
+
+    /// The stream, unless the fault changes the motion.
+    pub fn stream(self) -> Option<Stream> {
+        match self {
+            Target::Stream(s) => Some(s),
+            Target::Motion => None,
         }
     }
 }
@@ -98,7 +96,8 @@ impl Expected {
     }
 }
 
-/// The sensor a time fault applies to.
+/// The sensor a time fault applies to: the streams of the estimator's
+/// ordering buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Sensor {
     /// The IMU.
@@ -111,7 +110,7 @@ pub enum Sensor {
 
 impl Sensor {
     /// Its stream.
-    pub fn stream(self) -> Stream {
+    pub const fn stream(self) -> Stream {
         match self {
             Sensor::Imu => Stream::Imu,
             Sensor::Wheel => Stream::Wheel,
@@ -237,11 +236,7 @@ impl FaultKind {
 
     /// The command-line name.
     pub fn name(self) -> String {
-        let s = |x: Sensor| match x {
-            Sensor::Imu => "imu",
-            Sensor::Wheel => "wheel",
-            Sensor::Flow => "flow",
-        };
+        let s = |x: Sensor| x.stream().name();
         match self {
             FaultKind::ImuNan => "imu-nan".into(),
             FaultKind::ImuInf => "imu-inf".into(),
@@ -283,10 +278,10 @@ impl FaultKind {
         FaultKind::ALL.iter().copied().find(|k| k.name() == name)
     }
 
-    /// The stream it spoils.
-    pub fn stream(self) -> Stream {
+    /// What it spoils.
+    pub fn target(self) -> Target {
         use FaultKind::*;
-        match self {
+        Target::Stream(match self {
             ImuNan | ImuInf | ImuOutlier | ImuSaturated | ImuStuck => Stream::Imu,
             WheelOutlier | WheelStuck | WheelSpi | WheelParity | WheelErrorFlag | WheelWrap => {
                 Stream::Wheel
@@ -296,8 +291,13 @@ impl FaultKind {
             Duplicate(s) | ZeroDt(s) | Late(s) | Gap(s) => s.stream(),
             CamBlack | CamSaturated | CamUniform | CamBlur | CamFrozen => Stream::Camera,
             SegNoGround | SegUnknown => Stream::Segmentation,
-            Stuck | Lifted | Bump => Stream::Motion,
-        }
+            Stuck | Lifted | Bump => return Target::Motion,
+        })
+    }
+
+    /// The stream it spoils (`None` for a fault of the motion).
+    pub fn stream(self) -> Option<Stream> {
+        self.target().stream()
     }
 
     /// Where it is injected.
@@ -416,5 +416,32 @@ impl FaultKind {
     /// Whether the kind takes a window (`+DUR`) rather than a count.
     pub fn has_window(self) -> bool {
         self.default_duration() > 0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_fault_names_a_stream_of_the_registry_or_the_motion() {
+        for k in FaultKind::ALL {
+            match k.target() {
+                Target::Stream(s) => {
+                    assert_eq!(Stream::from_name(k.target().name()), Some(s));
+                    assert_eq!(k.stream(), Some(s));
+                }
+                Target::Motion => {
+                    assert_eq!(k.target().name(), "motion");
+                    assert_eq!(k.stream(), None);
+                }
+            }
+        }
+        // Time faults hit the buffered streams, named as the registry names them.
+        for x in [Sensor::Imu, Sensor::Wheel, Sensor::Flow] {
+            let name = FaultKind::Late(x).name();
+            assert_eq!(name, format!("{}-late", x.stream().name()));
+            assert_eq!(FaultKind::from_name(&name), Some(FaultKind::Late(x)));
+        }
     }
 }

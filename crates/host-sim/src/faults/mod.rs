@@ -45,6 +45,9 @@ pub mod spec;
 pub mod stream;
 
 pub use chip::FailedRead;
-pub use kind::{Expected, FaultKind, Sensor, Stage, Stream};
+pub use kind::{Expected, FaultKind, Sensor, Stage, Target};
 pub use spec::{FaultPlan, FaultSpec, SpecError, kinds_help};
 pub use stream::{Delivery, FaultInjector, SpoiledSample, inject};
+/// The sensor registry the faults, their records and the reports name
+/// streams by.
+pub use traction::vslam_core::Stream;

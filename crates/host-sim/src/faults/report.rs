@@ -7,11 +7,10 @@
 //! sample shares the stamp): the estimator's ordering buffer keeps arrival
 //! order between equal stamps.
 
-use super::kind::Stream;
 use super::spec::FaultPlan;
 use serde_json::{Value, json};
 use std::collections::{BTreeMap, HashMap};
-use traction::vslam_core::Timestamp;
+use traction::vslam_core::{Stream, Timestamp};
 
 /// One spoiled sample (or failed read, frame, map) of the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -116,7 +115,7 @@ pub fn faults_section(log: &FaultLog, results: &[FaultOutcome]) -> Value {
             json!({
                 "fault": r.spec,
                 "kind": spec.kind.name(),
-                "stream": spec.kind.stream().name(),
+                "stream": spec.kind.target().name(),
                 "stage": spec.kind.stage().name(),
                 "start_s": spec.start,
                 "window_end_s": r.window_end_ns as f64 * 1e-9,

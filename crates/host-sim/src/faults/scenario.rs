@@ -3,13 +3,14 @@
 //! fault-free robot is at the start time (the office's first leg runs
 //! along x, so a cable is a strip `x = const`).
 
-use super::kind::{FaultKind, Stream};
+use super::kind::FaultKind;
 use super::report::Injected;
 use super::spec::FaultPlan;
 use crate::sim::motion::integrate;
 use crate::sim::scenario::Scenario;
 use crate::sim::script::{Episode, EpisodeKind, LIFT_RAMP};
 use crate::sim::world::Strip;
+use traction::vslam_core::Stream;
 use traction::vslam_core::Timestamp;
 
 /// The cable a `bump` lays: 8 mm wide, 12 mm high (the office's cable).

@@ -213,7 +213,7 @@ impl<S: SensorSample, I: Iterator<Item = S>> FaultInjector<I> {
     /// belong to `stage`.
     pub fn new(inner: I, plan: &FaultPlan, stage: Stage) -> Self {
         let active: Vec<Active> = plan
-            .select(|f| f.kind.stage() == stage && f.kind.stream() == S::SENSOR.stream())
+            .select(|f| f.kind.stage() == stage && f.kind.stream() == Some(S::SENSOR.stream()))
             .map(|(index, spec)| Active {
                 index,
                 spec: *spec,

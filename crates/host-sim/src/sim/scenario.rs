@@ -182,7 +182,7 @@ pub fn generate_with(
         image_faults
             .iter()
             .zip(left.iter_mut())
-            .find(|((_, f), n)| **n > 0 && f.kind.stream() == stream && t >= f.start_ns())
+            .find(|((_, f), n)| **n > 0 && f.kind.stream() == Some(stream) && t >= f.start_ns())
             .map(|((i, f), n)| {
                 *n -= 1;
                 (*i, f.kind)
