@@ -30,7 +30,7 @@ use heapless::Deque;
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, WheelTicks};
-use vslam_core::{Reject, SampleCounts, Stream, StreamCounts, Timestamp};
+use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 /// Samples the ordering buffer holds.
@@ -64,6 +64,8 @@ pub enum EstimatorError {
     Filter(ConfigError),
     /// The scale pipeline settings were refused.
     Scale(PipelineConfigError),
+    /// The robot description was refused.
+    Robot(RobotError),
 }
 
 impl core::fmt::Display for EstimatorError {
@@ -71,6 +73,7 @@ impl core::fmt::Display for EstimatorError {
         match self {
             EstimatorError::Filter(e) => write!(f, "filter settings: {e:?}"),
             EstimatorError::Scale(e) => write!(f, "scale settings: {e:?}"),
+            EstimatorError::Robot(e) => write!(f, "robot description: {e}"),
         }
     }
 }

@@ -20,6 +20,7 @@ pub use flow_sensor;
 pub use vslam_core;
 pub use wheel_odom;
 
+pub mod config;
 pub mod estimator;
 pub mod frontend;
 pub mod reorder;

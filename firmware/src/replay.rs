@@ -18,15 +18,19 @@
 
 use core::fmt::{self, Write};
 
-use traction::ego_ekf::{EgoEkf, FilterConfig, FlowConfig};
+use traction::ego_ekf::{EgoEkf, FilterConfig};
+use traction::estimator::{EstimatorConfig, EstimatorError};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
 use traction::vslam_core::image::ImageView;
+use traction::vslam_core::robot::{
+    FlowDescription, ImuDescription, ImuNoise, RobotDescription, RobotError, Wheels,
+};
 use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
-use traction::vslam_core::sensors::{FlowOptics, ImuSample};
+use traction::vslam_core::sensors::ImuSample;
 use traction::vslam_core::{PerStream, Reject, SampleCounts};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
@@ -118,6 +122,8 @@ pub enum RunError {
     Format(FormatError),
     /// The header gives a configuration the filter, odometry or pipeline refuses.
     Config(&'static str),
+    /// The header describes an inconsistent robot.
+    Robot(RobotError),
 }
 
 impl fmt::Display for RunError {
@@ -125,6 +131,7 @@ impl fmt::Display for RunError {
         match self {
             RunError::Format(e) => write!(f, "sample data: {e}"),
             RunError::Config(what) => write!(f, "configuration refused: {what}"),
+            RunError::Robot(e) => write!(f, "robot description refused: {e}"),
         }
     }
 }
@@ -140,47 +147,62 @@ pub struct RunConfig {
     pub scale: PipelineConfig,
 }
 
-/// Builds the configurations from the header.
-pub fn config(h: &Header) -> Result<RunConfig, RunError> {
+/// The robot the header describes: wheels and encoders, IMU noise, every
+/// `T_BS`, the flow optics; rim speed, wheel path noise and flow noise of the
+/// robot-vacuum preset ([`RobotDescription::robot_vacuum`]).
+pub fn robot(h: &Header) -> Result<RobotDescription, RunError> {
     let extrinsics =
         |m: &[f32; 16], what| Extrinsics::from_row_major(m).map_err(|_| RunError::Config(what));
-    let mut filter = FilterConfig::default();
-    let [accel_density, gyro_density, accel_walk, gyro_walk] = h.imu_noise;
-    filter.imu_noise.accel_density = accel_density;
-    filter.imu_noise.gyro_density = gyro_density;
-    filter.imu_noise.accel_random_walk = accel_walk;
-    filter.imu_noise.gyro_random_walk = gyro_walk;
-    let half = 0.5 * h.wheel_base;
+    let preset = RobotDescription::robot_vacuum();
+    let [
+        accel_density,
+        gyro_density,
+        accel_random_walk,
+        gyro_random_walk,
+    ] = h.imu_noise;
     let [radius_left, radius_right] = h.wheel_radius;
-    filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
-    filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
-    filter.robot.radius = 0.5 * (radius_left + radius_right);
-    let optics = FlowOptics::new(
-        h.flow_counts_per_radian,
-        h.flow_height,
-        extrinsics(&h.flow_t_bs, "flow T_BS")?,
-    )
-    .map_err(|_| RunError::Config("flow optics"))?;
-    filter.flow = Some(FlowConfig::new(optics));
-    let odometry = DiffDriveParams::new(
-        h.ticks_per_revolution,
-        radius_left,
-        radius_right,
-        h.wheel_base,
-        3.0,
-        500_000_000,
-    )
-    .map_err(|_| RunError::Config("wheel odometry"))?;
-    let scale = PipelineConfig {
-        camera: extrinsics(&h.camera_t_bs, "camera T_BS")?,
-        imu: extrinsics(&h.imu_t_bs, "IMU T_BS")?,
-        flow_optics: Some(optics),
-        ..PipelineConfig::default()
-    };
+    let flow = preset.flow.map(|flow| -> Result<_, RunError> {
+        Ok(FlowDescription {
+            mount: extrinsics(&h.flow_t_bs, "flow T_BS")?,
+            height: h.flow_height,
+            counts_per_radian: h.flow_counts_per_radian,
+            ..flow
+        })
+    });
+    Ok(RobotDescription {
+        wheels: Wheels {
+            radius_left,
+            radius_right,
+            track: h.wheel_base,
+            track_factor: 1.0,
+            counts_per_revolution: h.ticks_per_revolution,
+            ..preset.wheels
+        },
+        imu: ImuDescription {
+            mount: extrinsics(&h.imu_t_bs, "IMU T_BS")?,
+            noise: ImuNoise {
+                accel_density,
+                gyro_density,
+                accel_random_walk,
+                gyro_random_walk,
+            },
+        },
+        flow: flow.transpose()?,
+        camera: Some(extrinsics(&h.camera_t_bs, "camera T_BS")?),
+    })
+}
+
+/// Builds the configurations from the header, through
+/// [`EstimatorConfig::from_robot`] as `host-sim replay` does.
+pub fn config(h: &Header) -> Result<RunConfig, RunError> {
+    let c = EstimatorConfig::from_robot(&robot(h)?).map_err(|e| match e {
+        EstimatorError::Robot(e) => RunError::Robot(e),
+        _ => RunError::Config("estimator"),
+    })?;
     Ok(RunConfig {
-        filter,
-        odometry,
-        scale,
+        filter: c.filter,
+        odometry: c.odometry,
+        scale: c.scale,
     })
 }
 

@@ -1,38 +1,14 @@
-//! Filter configuration: IMU noise densities, time limits, the robot prior,
-//! the still detector and the flow sensor. Checked once by [`FilterConfig::check`].
+//! Filter configuration: IMU noise densities and limits, one struct per
+//! aiding sensor (wheels, flow), the robot prior, the still detector. Checked once by [`FilterConfig::check`].
 
 use core::fmt;
 
-use vslam_core::sensors::FlowOptics;
+pub use vslam_core::robot::ImuNoise;
+use vslam_core::robot::{FlowDescription, RobotDescription, RobotError};
+use vslam_core::sensors::{FlowOptics, FlowOpticsError};
 
 use crate::grip::GripParams;
 use crate::state::{Quat, Vec3};
-
-/// IMU noise densities and bias random walks (continuous time), as in a
-/// Kalibr / EuRoC `imu.yaml`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuNoise {
-    /// Accelerometer white noise density, m/s^2/sqrt(Hz).
-    pub accel_density: f32,
-    /// Gyroscope white noise density, rad/s/sqrt(Hz).
-    pub gyro_density: f32,
-    /// Accelerometer bias random walk, m/s^3/sqrt(Hz).
-    pub accel_random_walk: f32,
-    /// Gyroscope bias random walk, rad/s^2/sqrt(Hz).
-    pub gyro_random_walk: f32,
-}
-
-impl Default for ImuNoise {
-    /// A consumer MEMS IMU (BMI088 / ICM-42688 class).
-    fn default() -> Self {
-        ImuNoise {
-            accel_density: 2.0e-3,
-            gyro_density: 2.0e-4,
-            accel_random_walk: 3.0e-4,
-            gyro_random_walk: 2.0e-5,
-        }
-    }
-}
 
 /// The robot's mechanical prior: where the wheels touch the floor seen from
 /// the IMU, how the IMU is turned in the chassis, the wheel radii, and how
@@ -75,6 +51,28 @@ impl Default for RobotPrior {
             radius_random_walk: 1.0e-6,
             contact_random_walk: 1.0e-6,
             rotation_random_walk: 1.0e-6,
+        }
+    }
+}
+
+impl RobotPrior {
+    /// The prior of a described robot, seen from its IMU: the contact points
+    /// `(0, ±track / 2, 0)` of the body frame (the kinematic track, see
+    /// [`vslam_core::robot::Wheels::kinematic_track`]) in the IMU frame,
+    /// `p_I = R_BS^T (p_B - t_BS)`; `q_rb = R_BS` (IMU vectors into the
+    /// robot frame); the mean wheel radius; the uncertainties of
+    /// [`RobotPrior::default`]. The description is assumed valid
+    /// ([`RobotDescription::validate`]).
+    pub fn from_robot(robot: &RobotDescription) -> Self {
+        let mount = &robot.imu.mount;
+        let half = 0.5 * robot.wheels.kinematic_track();
+        let in_imu = |y: f32| mount.r_bs().inverse() * (Vec3::new(0.0, y, 0.0) - mount.t_bs());
+        RobotPrior {
+            p_bl: in_imu(half),
+            p_br: in_imu(-half),
+            q_rb: Quat::from_rotation_matrix(mount.r_bs()),
+            radius: robot.wheels.mean_radius(),
+            ..RobotPrior::default()
         }
     }
 }
@@ -159,7 +157,36 @@ impl Default for InitConfig {
     }
 }
 
-/// The optical-flow sensor: optics, noise model and gate.
+/// The wheel encoders' timing and how long a gated run lasts before the
+/// filter re-examines its velocity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelConfig {
+    /// Largest accepted step between wheel samples, ns.
+    pub max_dt_ns: u64,
+    /// Largest distance, ns, between a wheel sample's time and the filter's
+    /// (latest IMU) time: an older sample measured a velocity the state no
+    /// longer has ([`vslam_core::Reject::OutOfOrder`]), a newer one a
+    /// velocity the state has not reached ([`vslam_core::Reject::NotReady`]).
+    pub max_age_ns: u64,
+    /// Consecutive gated forward wheel updates after which the filter
+    /// re-examines its own velocity ([`crate::recovery`]; 0: never);
+    /// re-examined again every as many gated updates while the run lasts.
+    pub reexamine_after_gated: u16,
+}
+
+impl Default for WheelConfig {
+    /// Steps up to 0.2 s, samples within 50 ms of the filter's time,
+    /// re-examination after 25 gated updates (0.5 s at 50 Hz).
+    fn default() -> Self {
+        WheelConfig {
+            max_dt_ns: 200_000_000,
+            max_age_ns: 50_000_000,
+            reexamine_after_gated: 25,
+        }
+    }
+}
+
+/// The optical-flow sensor: optics, noise model, gate and timing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowConfig {
     /// Resolution, height and mounting `T_BS` in the robot frame.
@@ -176,9 +203,14 @@ pub struct FlowConfig {
     pub gate: f32,
     /// Largest step between flow reports, ns.
     pub max_dt_ns: u64,
+    /// Oldest flow report, ns, that still counts as a recent witness; a
+    /// report this far ahead of the filter's time is not fused yet.
+    pub max_age_ns: u64,
+    /// Window, ns, over which the flow's reports are averaged into a witness.
+    pub window_ns: u64,
     /// Consecutive gated reports of valid quality after which the filter
     /// stops trusting its own velocity and resets it to the flow's (0: never).
-    pub reset_after_gated: u16,
+    pub velocity_reset_after_gated: u16,
     /// Fastest flow-measured speed, m/s, the velocity may be reset to; a
     /// report claiming more is no ground truth to restart from.
     pub reset_max_speed: f32,
@@ -195,23 +227,35 @@ impl FlowConfig {
             shutter_good: 0x0400,
             gate: 9.21,
             max_dt_ns: 100_000_000,
-            reset_after_gated: 25,
+            max_age_ns: 200_000_000,
+            window_ns: 250_000_000,
+            velocity_reset_after_gated: 25,
             reset_max_speed: 2.0,
         }
+    }
+}
+
+impl FlowConfig {
+    /// The configuration of a described flow sensor: its optics, mounting and
+    /// noise, the other settings of [`FlowConfig::new`].
+    pub fn from_robot(flow: &FlowDescription) -> Result<Self, RobotError> {
+        let optics = FlowOptics::new(flow.counts_per_radian, flow.height, flow.mount).map_err(
+            |e| match e {
+                FlowOpticsError::BadResolution => RobotError::BadFlowResolution,
+                FlowOpticsError::BadHeight => RobotError::FlowBelowFloor,
+            },
+        )?;
+        Ok(FlowConfig {
+            base_std: flow.base_std,
+            relative_std: flow.relative_std,
+            ..FlowConfig::new(optics)
+        })
     }
 }
 
 /// How the filter gets out of a wheel lockout (see [`crate::recovery`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RecoveryConfig {
-    /// Consecutive gated forward wheel updates after which the filter
-    /// re-examines its own velocity (0: never); re-examined again every as
-    /// many gated updates while the run lasts.
-    pub reset_after_gated: u16,
-    /// Oldest flow report, ns, that still counts as a recent witness.
-    pub flow_max_age_ns: u64,
-    /// Window, ns, over which the flow's reports are averaged into a witness.
-    pub flow_window_ns: u64,
     /// Lowest grip at which the wheels themselves may be the reset source.
     pub wheel_min_grip: f32,
     /// Largest change of the forward wheel innovation, m/s, within one steady
@@ -230,15 +274,11 @@ pub struct RecoveryConfig {
 }
 
 impl Default for RecoveryConfig {
-    /// Re-examine after 25 gated updates (0.5 s at 50 Hz), flow younger than
-    /// 0.2 s averaged over 0.25 s, wheels trusted on floors of grip 0.85 and more (wood, tile),
+    /// Wheels trusted on floors of grip 0.85 and more (wood, tile),
     /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
     /// only when its mean is known to 0.2 m/s.
     fn default() -> Self {
         RecoveryConfig {
-            reset_after_gated: 25,
-            flow_max_age_ns: 200_000_000,
-            flow_window_ns: 250_000_000,
             wheel_min_grip: 0.85,
             steady_tolerance: 0.05,
             silence_ns: 500_000_000,
@@ -292,13 +332,8 @@ pub struct FilterConfig {
     /// Full scale of the accelerometer, m/s^2; a reading at or beyond it is
     /// [`vslam_core::Reject::Saturated`].
     pub imu_accel_max: f32,
-    /// Largest accepted step between wheel samples, ns.
-    pub wheel_max_dt_ns: u64,
-    /// Largest distance, ns, between a wheel sample's time and the filter's
-    /// (latest IMU) time: an older sample measured a velocity the state no
-    /// longer has ([`vslam_core::Reject::OutOfOrder`]), a newer one a
-    /// velocity the state has not reached ([`vslam_core::Reject::NotReady`]).
-    pub wheel_max_age_ns: u64,
+    /// The wheel encoders.
+    pub wheel: WheelConfig,
     /// Getting out of a wheel lockout.
     pub recovery: RecoveryConfig,
     /// Bridging an IMU gap.
@@ -324,8 +359,7 @@ impl Default for FilterConfig {
             imu_max_dt_ns: 20_000_000,
             imu_gyro_max: 35.0,
             imu_accel_max: 160.0,
-            wheel_max_dt_ns: 200_000_000,
-            wheel_max_age_ns: 50_000_000,
+            wheel: WheelConfig::default(),
             recovery: RecoveryConfig::default(),
             gap: GapConfig::default(),
             robot: RobotPrior::default(),
@@ -335,6 +369,26 @@ impl Default for FilterConfig {
             grip: GripParams::default(),
             gravity: crate::state::STANDARD_GRAVITY,
         }
+    }
+}
+
+impl FilterConfig {
+    /// The filter's configuration for a described robot: its IMU noise, its
+    /// robot prior ([`RobotPrior::from_robot`]) and its flow sensor
+    /// ([`FlowConfig::from_robot`]); every other setting of
+    /// [`FilterConfig::default`]. Refuses an invalid description.
+    pub fn from_robot(robot: &RobotDescription) -> Result<Self, RobotError> {
+        robot.validate()?;
+        Ok(FilterConfig {
+            imu_noise: robot.imu.noise,
+            robot: RobotPrior::from_robot(robot),
+            flow: robot
+                .flow
+                .as_ref()
+                .map(FlowConfig::from_robot)
+                .transpose()?,
+            ..FilterConfig::default()
+        })
     }
 }
 
@@ -408,7 +462,10 @@ impl FilterConfig {
         let flow_noise = self
             .flow
             .map_or([1.0; 3], |f| [f.base_std, f.relative_std, f.gate]);
-        if self.flow.is_some_and(|f| f.max_dt_ns == 0) {
+        if self
+            .flow
+            .is_some_and(|f| f.max_dt_ns == 0 || f.max_age_ns == 0 || f.window_ns == 0)
+        {
             return Err(ConfigError::BadLimit);
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
@@ -424,8 +481,8 @@ impl FilterConfig {
             return Err(ConfigError::BadGeometry);
         }
         if self.imu_max_dt_ns == 0
-            || self.wheel_max_dt_ns == 0
-            || self.wheel_max_age_ns == 0
+            || self.wheel.max_dt_ns == 0
+            || self.wheel.max_age_ns == 0
             || i.samples == 0
             || z.still_samples == 0
             || z.every == 0
@@ -433,5 +490,33 @@ impl FilterConfig {
             return Err(ConfigError::BadLimit);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vslam_core::geometry::Extrinsics;
+
+    #[test]
+    fn each_sensor_config_refuses_a_zero_time_limit() {
+        let optics = FlowOptics::new(48.8, 0.03, Extrinsics::identity()).unwrap();
+        let ok = FilterConfig {
+            flow: Some(FlowConfig::new(optics)),
+            ..FilterConfig::default()
+        };
+        assert_eq!(ok.check(), Ok(()));
+        let zero: [&dyn Fn(&mut FilterConfig); 5] = [
+            &|c| c.wheel.max_dt_ns = 0,
+            &|c| c.wheel.max_age_ns = 0,
+            &|c| c.flow.as_mut().unwrap().max_dt_ns = 0,
+            &|c| c.flow.as_mut().unwrap().max_age_ns = 0,
+            &|c| c.flow.as_mut().unwrap().window_ns = 0,
+        ];
+        for edit in zero {
+            let mut c = ok;
+            edit(&mut c);
+            assert_eq!(c.check(), Err(ConfigError::BadLimit));
+        }
     }
 }

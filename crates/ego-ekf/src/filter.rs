@@ -161,14 +161,14 @@ impl EgoEkf {
             still: StillDetector::new(),
             zupt: ZuptFusion::new(),
             wheel: WheelFusion::new(
-                config.wheel_max_dt_ns,
-                config.wheel_max_age_ns,
+                config.wheel.max_dt_ns,
+                config.wheel.max_age_ns,
                 config.zupt.max_wheel_rate,
             ),
             flow: FlowFusion::new(
                 config.flow.map_or(1, |f| f.max_dt_ns),
-                config.recovery.flow_max_age_ns,
-                config.recovery.flow_window_ns,
+                config.flow.map_or(1, |f| f.max_age_ns),
+                config.flow.map_or(1, |f| f.window_ns),
                 config.flow.map_or(0.0, |f| f.base_std),
             ),
             recovery: RecoveryCounts::default(),
@@ -288,6 +288,7 @@ impl EgoEkf {
             self.wheel.stopped()
                 && !recovery::flow_sees_motion(
                     &self.config.recovery,
+                    self.flow_max_age_ns(),
                     self.flow_witness_at(sample.t()),
                     sample.t(),
                 ),
@@ -343,6 +344,12 @@ impl EgoEkf {
         }
     }
 
+    /// The oldest flow report that is still a witness, ns
+    /// ([`crate::config::FlowConfig::max_age_ns`]; 0 without a flow sensor).
+    fn flow_max_age_ns(&self) -> u64 {
+        self.config.flow.map_or(0, |f| f.max_age_ns)
+    }
+
     /// The flow's recent mean at `t`, if a flow sensor is configured.
     fn flow_witness_at(&self, t: Timestamp) -> Option<FlowWitness> {
         self.config.flow.and_then(|_| self.flow.witness(t))
@@ -387,6 +394,7 @@ impl EgoEkf {
             let geometry = wheel_geometry(&self.x, &self.grip);
             let witness = recovery::speed_witness(
                 &self.config.recovery,
+                self.flow_max_age_ns(),
                 self.flow_witness_at(rates.t()),
                 rates.t(),
             );
@@ -406,7 +414,7 @@ impl EgoEkf {
         );
         if let Ok(inn) = out.as_mut()
             && inn.gated
-            && self.wheel.watch().run().due(&self.config.recovery)
+            && self.wheel.watch().run().due(&self.config.wheel)
         {
             let verdict = self.re_examine(rates, inn);
             inn.recovery = Some(verdict);
@@ -423,7 +431,7 @@ impl EgoEkf {
         let gyro = self.angular_velocity();
         let v = self.robot_velocity();
         let flow = recovery::recent(
-            &self.config.recovery,
+            self.flow_max_age_ns(),
             self.flow_witness_at(rates.t()),
             rates.t(),
         );
@@ -442,6 +450,7 @@ impl EgoEkf {
         };
         let verdict = recovery::re_examine(
             &self.config.recovery,
+            &self.config.wheel,
             &evidence,
             &mut self.x,
             &mut self.p,
@@ -456,7 +465,7 @@ impl EgoEkf {
     /// Fuses one optical-flow report at the filter's time; see
     /// [`crate::flow`]. Without a configured flow sensor, or before the
     /// filter starts, every report is [`Reject::NotReady`]; so is one more
-    /// than [`crate::config::RecoveryConfig::flow_max_age_ns`] ahead of the
+    /// than [`crate::config::FlowConfig::max_age_ns`] ahead of the
     /// filter's time (the IMU silent: the report only closes its interval
     /// and witnesses the speed for the gap's wheels), and one that far
     /// behind is [`Reject::OutOfOrder`].

@@ -8,7 +8,7 @@
 //! IMU glitch, a bad start) and every later update is refused: a lockout. As
 //! PX4 EKF2 resets its velocity after a fusion timeout, from the best source
 //! it has, the filter re-examines its velocity after
-//! [`RecoveryConfig::reset_after_gated`] gated updates in a row and asks the
+//! [`WheelConfig::reexamine_after_gated`] gated updates in a row and asks the
 //! most trusted witness:
 //!
 //! 1. a recent flow report of valid quality ([`FlowWitness`]): if the flow
@@ -54,7 +54,7 @@ use nalgebra::Vector2;
 use vslam_core::Timestamp;
 use vslam_core::scale::disagreement;
 
-use crate::config::{FlowConfig, RecoveryConfig};
+use crate::config::{FlowConfig, RecoveryConfig, WheelConfig};
 use crate::covariance::reset_velocity;
 use crate::gap::odometry::SpeedWitness;
 use crate::state::{Covariance, NominalState, Vec3};
@@ -276,10 +276,10 @@ impl GatedRun {
     }
 
     /// Whether the run has reached a multiple of the re-examination length.
-    pub fn due(&self, config: &RecoveryConfig) -> bool {
-        config.reset_after_gated > 0
+    pub fn due(&self, wheel: &WheelConfig) -> bool {
+        wheel.reexamine_after_gated > 0
             && self.len > 0
-            && self.len.is_multiple_of(config.reset_after_gated)
+            && self.len.is_multiple_of(wheel.reexamine_after_gated)
     }
 }
 
@@ -353,7 +353,7 @@ pub struct Evidence<'a> {
 }
 
 /// The verdict for `evidence`; see the module documentation.
-pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
+pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<'_>) -> Verdict {
     let e = evidence;
     // A vague flow mean (the sensor saw no floor) is no witness.
     let flow = e.flow.filter(|f| f.std <= config.flow_witness_max_std);
@@ -376,7 +376,7 @@ pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
     let run = e.run;
     if e.grip >= config.wheel_min_grip
         && run.trusted_onset
-        && run.steady_len >= config.reset_after_gated
+        && run.steady_len >= wheel.reexamine_after_gated
         && e.wheel_speed.is_finite()
     {
         return Verdict::Reset(ResetSource::Wheels);
@@ -390,13 +390,14 @@ pub fn decide(config: &RecoveryConfig, evidence: &Evidence<'_>) -> Verdict {
 /// caller ends the wheels' gated run after a reset.
 pub fn re_examine(
     config: &RecoveryConfig,
+    wheel: &WheelConfig,
     evidence: &Evidence<'_>,
     x: &mut NominalState,
     p: &mut Covariance,
     gyro: &Vec3,
 ) -> Verdict {
     let e = evidence;
-    let verdict = decide(config, e);
+    let verdict = decide(config, wheel, e);
     let reset = match (verdict, e.flow) {
         (Verdict::Reset(ResetSource::Flow), Some(f)) => Some((confirmed_flow(&f, e), f.std)),
         (Verdict::Reset(ResetSource::Wheels), _) => {
@@ -426,14 +427,10 @@ pub fn confirmed_flow(flow: &FlowWitness, evidence: &Evidence<'_>) -> Vector2<f3
     z
 }
 
-/// The flow witness if its latest report lies within
-/// [`RecoveryConfig::flow_max_age_ns`] of `t`.
-pub fn recent(
-    config: &RecoveryConfig,
-    witness: Option<FlowWitness>,
-    t: Timestamp,
-) -> Option<FlowWitness> {
-    witness.filter(|w| t.as_nanos().abs_diff(w.t.as_nanos()) <= config.flow_max_age_ns)
+/// The flow witness if its latest report lies within `max_age_ns`
+/// ([`FlowConfig::max_age_ns`]) of `t`.
+pub fn recent(max_age_ns: u64, witness: Option<FlowWitness>, t: Timestamp) -> Option<FlowWitness> {
+    witness.filter(|w| t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age_ns)
 }
 
 /// Whether the flow, recent and precise, sees the robot move at `t`: then
@@ -442,11 +439,12 @@ pub fn recent(
 /// above 3 cm/s.
 pub fn flow_sees_motion(
     config: &RecoveryConfig,
+    max_age_ns: u64,
     witness: Option<FlowWitness>,
     t: Timestamp,
 ) -> bool {
     witness.is_some_and(|w| {
-        let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= config.flow_max_age_ns;
+        let recent = t.as_nanos().abs_diff(w.t.as_nanos()) <= max_age_ns;
         let speed = w.velocity.norm();
         recent && w.std <= config.flow_witness_max_std && speed > 0.03_f32.max(3.0 * w.std)
     })
@@ -457,10 +455,11 @@ pub fn flow_sees_motion(
 /// ([`crate::gap::odometry`]).
 pub fn speed_witness(
     config: &RecoveryConfig,
+    max_age_ns: u64,
     witness: Option<FlowWitness>,
     t: Timestamp,
 ) -> Option<SpeedWitness> {
-    recent(config, witness, t)
+    recent(max_age_ns, witness, t)
         .filter(|w| w.std <= config.flow_witness_max_std)
         .map(|w| SpeedWitness {
             speed: w.velocity.x,
@@ -469,10 +468,11 @@ pub fn speed_witness(
 }
 
 /// Whether the flow's own run of `gated_run` gated reports ends in a reset
-/// of the velocity to the report: after [`FlowConfig::reset_after_gated`]
+/// of the velocity to the report: after [`FlowConfig::velocity_reset_after_gated`]
 /// in a row (0: never), of plausible speed.
 pub fn flow_reset_due(config: &FlowConfig, gated_run: u16, plausible: bool) -> bool {
-    config.reset_after_gated != 0 && gated_run >= config.reset_after_gated && plausible
+    let n = config.velocity_reset_after_gated;
+    n != 0 && gated_run >= n && plausible
 }
 
 /// Verdicts counted, and the latest.

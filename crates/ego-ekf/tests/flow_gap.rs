@@ -31,7 +31,7 @@ const WHEEL_EVERY: u64 = 5;
 /// The IMU is silent in `[GAP_FROM, GAP_TO)`, s.
 const GAP_FROM: f64 = 1.0;
 const GAP_TO: f64 = 3.0;
-/// Oldest/newest flow report the filter fuses (`RecoveryConfig::flow_max_age_ns`).
+/// Oldest/newest flow report the filter fuses (`FlowConfig::max_age_ns`).
 const FLOW_MAX_AGE: f64 = 0.2;
 
 /// A robot on a circle (speed `v`, yaw rate `w`) with an IMU above its
@@ -111,7 +111,7 @@ fn filter() -> EgoEkf {
     c.init.tilt_std = 5e-4;
     c.init.gyro_bias_std = 1e-4;
     c.init.accel_bias_std = 1e-4;
-    assert_eq!(c.recovery.flow_max_age_ns, (FLOW_MAX_AGE * 1e9) as u64);
+    assert_eq!(c.flow.unwrap().max_age_ns, (FLOW_MAX_AGE * 1e9) as u64);
     let mut f = EgoEkf::new(c).unwrap();
     f.start(&ExplicitStart {
         t: Timestamp(0),

@@ -13,7 +13,7 @@ fn filter(reset_after_gated: u16) -> EgoEkf {
     let optics = FlowOptics::new(500.0, 0.03, Extrinsics::identity()).unwrap();
     let mut config = FilterConfig::default();
     let mut flow = FlowConfig::new(optics);
-    flow.reset_after_gated = reset_after_gated;
+    flow.velocity_reset_after_gated = reset_after_gated;
     config.flow = Some(flow);
     let mut f = EgoEkf::new(config).unwrap();
     // The filter believes it drives 1 m/s forward; the robot stands still.

@@ -84,12 +84,12 @@ fn config(flow: bool, recovery: bool) -> FilterConfig {
     if flow {
         let mut f = FlowConfig::new(flow_optics());
         if !recovery {
-            f.reset_after_gated = 0;
+            f.velocity_reset_after_gated = 0;
         }
         c.flow = Some(f);
     }
     if !recovery {
-        c.recovery.reset_after_gated = 0;
+        c.wheel.reexamine_after_gated = 0;
     }
     // A filter that has been running for a while: its tilt and gyro bias
     // have converged, and it believes its accelerometer calibrated (it cannot

@@ -62,14 +62,14 @@ use rand_chacha::rand_core::SeedableRng;
 use std::time::Instant;
 use traction::ego_ekf::covariance::{is_positive_definite, looks_valid};
 use traction::ego_ekf::state::{BA, BG, CL, CP, CR, Covariance, DIM, RAD_L, RAD_R, TH, V};
-use traction::ego_ekf::{FilterConfig, FlowConfig};
 use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::reorder::Event;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
-use traction::vslam_core::scale::PipelineConfig;
-use traction::vslam_core::sensors::{FlowOptics, WheelTicks};
+use traction::vslam_core::robot::{
+    FlowDescription, ImuDescription, ImuNoise, RobotDescription, Wheels,
+};
+use traction::vslam_core::sensors::WheelTicks;
 use traction::vslam_core::{SampleCounts, Stream, Timestamp};
-use traction::wheel_odom::odometry::DiffDriveParams;
 
 /// IMU steps of the soak: one hour at 250 Hz. `SOAK_IMU_STEPS` overrides
 /// it for a quick trial; the soak itself is the hour.
@@ -103,43 +103,34 @@ fn estimator_config(
     imu_model: &ImuModel,
     flow_model: &FlowModel,
 ) -> EstimatorConfig {
-    let mut filter = FilterConfig::default();
-    filter.imu_noise.accel_density = imu_model.accel_noise_density as f32;
-    filter.imu_noise.gyro_density = imu_model.gyro_noise_density as f32;
-    filter.imu_noise.accel_random_walk = imu_model.accel_random_walk as f32;
-    filter.imu_noise.gyro_random_walk = imu_model.gyro_random_walk as f32;
-    let half = 0.5 * robot.wheel_base as f32;
-    filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
-    filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
-    filter.robot.radius = robot.nominal_radius as f32;
-    let mount = Extrinsics::from_row_major(&flow_model.t_bs_matrix()).unwrap();
-    let optics = FlowOptics::new(
-        flow_model.counts_per_radian as f32,
-        flow_model.t_bs[2] as f32,
-        mount,
-    )
-    .unwrap();
-    filter.flow = Some(FlowConfig::new(optics));
+    let preset = RobotDescription::robot_vacuum();
     let r = robot.nominal_radius as f32;
-    EstimatorConfig {
-        filter,
-        odometry: DiffDriveParams::new(
-            COUNTS as u32,
-            r,
-            r,
-            robot.wheel_base as f32,
-            3.0,
-            500_000_000,
-        )
-        .unwrap(),
-        scale: PipelineConfig {
-            flow_optics: Some(optics),
-            ..PipelineConfig::default()
+    let description = RobotDescription {
+        wheels: Wheels {
+            radius_left: r,
+            radius_right: r,
+            track: robot.wheel_base as f32,
+            counts_per_revolution: COUNTS as u32,
+            ..preset.wheels
         },
-        surface: None,
-        jolts: Default::default(),
-        reorder_window_ns: 20_000_000,
-    }
+        imu: ImuDescription {
+            mount: Extrinsics::identity(),
+            noise: ImuNoise {
+                accel_density: imu_model.accel_noise_density as f32,
+                gyro_density: imu_model.gyro_noise_density as f32,
+                accel_random_walk: imu_model.accel_random_walk as f32,
+                gyro_random_walk: imu_model.gyro_random_walk as f32,
+            },
+        },
+        flow: Some(FlowDescription {
+            mount: Extrinsics::from_row_major(&flow_model.t_bs_matrix()).unwrap(),
+            height: flow_model.t_bs[2] as f32,
+            counts_per_radian: flow_model.counts_per_radian as f32,
+            ..FlowDescription::robot_vacuum()
+        }),
+        camera: None,
+    };
+    EstimatorConfig::from_robot(&description).unwrap()
 }
 
 /// The samples of one lap, time-shifted to start at `t0_ns`, in time order;

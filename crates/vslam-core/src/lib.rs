@@ -7,7 +7,8 @@
 //!   samples, the sensor traits drivers implement, flow optics), [`kinematics`]
 //!   (differential drive and lever arm, one home each), [`stream`] (the sensor
 //!   registry: every kind of sample, and arrays indexed by it), [`reject`] (why
-//!   a sample was not fused, and the counts);
+//!   a sample was not fused, and the counts), [`robot`] (the robot
+//!   description: wheels, mountings, sensor noise);
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
 //!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
 //!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
@@ -70,11 +71,13 @@ pub mod lk;
 pub mod pose;
 pub mod pyramid;
 pub mod reject;
+pub mod robot;
 pub mod scale;
 pub mod sensors;
 pub mod stream;
 pub mod time;
 
 pub use reject::{Reject, SampleCounts};
+pub use robot::{RobotDescription, RobotError};
 pub use stream::{PerStream, Stream, StreamCounts};
 pub use time::{SampleClock, Timestamp};

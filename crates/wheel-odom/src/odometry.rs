@@ -25,6 +25,7 @@ use crate::arc::integrate_arc;
 use core::fmt;
 use vslam_core::geometry::Vec3;
 use vslam_core::kinematics::rim;
+use vslam_core::robot::{RobotDescription, RobotError};
 use vslam_core::sensors::{OdometryDelta, WheelRates, WheelTicks};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -107,6 +108,30 @@ impl DiffDriveParams {
             wheel_base,
             max_wheel_speed,
             max_step_ns,
+        })
+    }
+
+    /// Longest step [`DiffDriveParams::from_robot`] integrates, ns.
+    pub const MAX_STEP_NS: u64 = 500_000_000;
+
+    /// The odometry of a described robot: its encoders, radii, kinematic
+    /// track and fastest rim speed; steps up to [`Self::MAX_STEP_NS`].
+    pub fn from_robot(robot: &RobotDescription) -> Result<Self, RobotError> {
+        robot.validate()?;
+        let w = &robot.wheels;
+        DiffDriveParams::new(
+            w.counts_per_revolution,
+            w.radius_left,
+            w.radius_right,
+            w.kinematic_track(),
+            w.max_rim_speed,
+            Self::MAX_STEP_NS,
+        )
+        .map_err(|e| match e {
+            ParamsError::BadTicksPerRevolution => RobotError::BadEncoderResolution,
+            ParamsError::BadWheelRadius => RobotError::BadWheelRadius,
+            ParamsError::BadWheelBase => RobotError::BadTrack,
+            ParamsError::BadMaxWheelSpeed | ParamsError::BadMaxStep => RobotError::BadMaxRimSpeed,
         })
     }
 

@@ -20,7 +20,7 @@
 //! A filter whose velocity has run away gates every flow and wheel
 //! measurement from then on and never recovers (a lockout). As PX4 EKF2
 //! resets its velocity to optical flow after a fusion timeout, a run of
-//! [`FlowConfig::reset_after_gated`] consecutive gated reports of valid
+//! [`FlowConfig::velocity_reset_after_gated`] consecutive gated reports of valid
 //! quality and plausible speed ([`FlowConfig::reset_max_speed`]) resets the
 //! horizontal velocity to the flow's measurement with the measurement's
 //! variance (when: [`crate::recovery::flow_reset_due`]; the reset:

@@ -15,7 +15,7 @@
 //!   ([`Reject::OutOfOrder`], [`Reject::Duplicate`]);
 //! - a wheel speed above `GapConfig::max_wheel_speed`
 //!   ([`Reject::OutOfRange`]); the next good sample covers its interval;
-//! - an interval longer than `FilterConfig::wheel_max_dt_ns` ([`Reject::Gap`]):
+//! - an interval longer than `WheelConfig::max_dt_ns` ([`Reject::Gap`]):
 //!   the wheels were silent too, and the gap is bridged without them;
 //! - wheel geometry the filter cannot use (non-positive radius or track,
 //!   [`Reject::Degenerate`]).
@@ -29,7 +29,7 @@
 //!
 //! When the IMU returns, [`GapOdometry::take`] hands over the motion if it
 //! started at the gap's start and was never broken, after extrapolating the
-//! last rates to the IMU's return (at most `wheel_max_dt_ns`); otherwise
+//! last rates to the IMU's return (at most `WheelConfig::max_dt_ns`); otherwise
 //! nothing, and the filter falls back to the constant-velocity bridge
 //! ([`crate::gap::bridge_gap`]).
 
@@ -171,7 +171,7 @@ impl GapOdometry {
         if wheel_speeds.iter().any(|v| libm::fabsf(*v) > max) {
             return Err(Reject::OutOfRange);
         }
-        if dt_ns > config.wheel_max_dt_ns {
+        if dt_ns > config.wheel.max_dt_ns {
             self.broken = true;
             return Err(Reject::Gap);
         }
@@ -219,7 +219,7 @@ impl GapOdometry {
         let mut motion = self.motion;
         // The IMU may return a little before or after the latest wheel sample.
         match end.nanos_since(self.last) {
-            Some(tail) if tail > config.wheel_max_dt_ns => return None,
+            Some(tail) if tail > config.wheel.max_dt_ns => return None,
             Some(tail) if tail > 0 => {
                 let (l, r) = self.last_rates;
                 if !motion.step(geometry, l, r, nanos_to_seconds(tail)) {

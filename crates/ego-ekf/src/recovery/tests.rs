@@ -18,7 +18,7 @@ fn evidence<'a>(run: &'a GatedRun, flow: Option<FlowWitness>) -> Evidence<'a> {
 fn steady_run(config: &RecoveryConfig, silence: bool) -> GatedRun {
     let mut run = GatedRun::default();
     run.push(config, -0.3, silence);
-    for k in 1..config.reset_after_gated {
+    for k in 1..WheelConfig::default().reexamine_after_gated {
         // A slow drift inside the tolerance.
         run.push(config, -0.3 - 0.001 * f32::from(k), false);
     }
@@ -63,18 +63,20 @@ fn the_window_averages_recent_reports_only() {
 #[test]
 fn flow_that_disagrees_with_the_filter_is_the_source() {
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let run = steady_run(&c, false);
-    let v = decide(&c, &evidence(&run, witness(0.3, 0.02)));
+    let v = decide(&c, &w, &evidence(&run, witness(0.3, 0.02)));
     assert_eq!(v, Verdict::Reset(ResetSource::Flow));
 }
 
 #[test]
 fn noisy_flow_that_the_wheels_confirm_is_the_source() {
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let run = steady_run(&c, false);
     // 0.3 m/s off the filter is within a 0.15 m/s flow's gate, but the
     // wheels say the same as the flow.
-    let v = decide(&c, &evidence(&run, witness(0.32, 0.15)));
+    let v = decide(&c, &w, &evidence(&run, witness(0.32, 0.15)));
     assert_eq!(v, Verdict::Reset(ResetSource::Flow));
 }
 
@@ -83,46 +85,56 @@ fn a_vague_flow_mean_is_no_witness() {
     // A lifted robot: the flow sees no floor, its reports average to a
     // zero of 0.5 m/s std that the free-spinning wheels "agree" with.
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let run = steady_run(&c, false);
-    let v = decide(&c, &evidence(&run, witness(0.0, 0.5)));
+    let v = decide(&c, &w, &evidence(&run, witness(0.0, 0.5)));
     assert_eq!(v, Verdict::NoTrustedSource);
 }
 
 #[test]
 fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let run = steady_run(&c, false);
-    let v = decide(&c, &evidence(&run, witness(0.6, 0.02)));
+    let v = decide(&c, &w, &evidence(&run, witness(0.6, 0.02)));
     assert_eq!(v, Verdict::WheelsSlip);
 }
 
 #[test]
 fn without_flow_the_wheels_only_after_silence_on_high_grip() {
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let jump = steady_run(&c, false);
-    assert_eq!(decide(&c, &evidence(&jump, None)), Verdict::NoTrustedSource);
+    assert_eq!(
+        decide(&c, &w, &evidence(&jump, None)),
+        Verdict::NoTrustedSource
+    );
     let silence = steady_run(&c, true);
     assert_eq!(
-        decide(&c, &evidence(&silence, None)),
+        decide(&c, &w, &evidence(&silence, None)),
         Verdict::Reset(ResetSource::Wheels)
     );
     let mut carpet = evidence(&silence, None);
     carpet.grip = 0.7;
-    assert_eq!(decide(&c, &carpet), Verdict::NoTrustedSource);
+    assert_eq!(decide(&c, &w, &carpet), Verdict::NoTrustedSource);
 }
 
 #[test]
 fn an_unsteady_run_is_no_offset() {
     let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
     let mut run = GatedRun::default();
     run.push(&c, -0.1, true);
-    for k in 1..c.reset_after_gated {
+    for k in 1..w.reexamine_after_gated {
         // The wheels keep speeding up against the IMU: spinning up.
         run.push(&c, -0.1 - 0.03 * f32::from(k), false);
     }
-    assert!(run.steady_len() < c.reset_after_gated);
-    assert_eq!(decide(&c, &evidence(&run, None)), Verdict::NoTrustedSource);
-    assert!(run.due(&c));
+    assert!(run.steady_len() < w.reexamine_after_gated);
+    assert_eq!(
+        decide(&c, &w, &evidence(&run, None)),
+        Verdict::NoTrustedSource
+    );
+    assert!(run.due(&w));
 }
 
 #[test]

@@ -3,21 +3,19 @@
 //! sensor under `mav0/`, each with its noise figures and `T_BS`).
 
 use super::ReplayOptions;
-use crate::asl::{Dataset, SegMeta, WheelMeta};
+use crate::asl::{Dataset, SegMeta};
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
-use traction::ego_ekf::events::JoltConfig;
 use traction::ego_ekf::surface::{
     ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
 };
-use traction::ego_ekf::{FilterConfig, FlowConfig};
 use traction::estimator::EstimatorConfig;
 use traction::frontend::FrontEndConfig;
 use traction::vslam_core::decompose::PinholeIntrinsics;
-use traction::vslam_core::geometry::{Extrinsics, Vec3};
-use traction::vslam_core::scale::PipelineConfig;
-use traction::vslam_core::sensors::FlowOptics;
-use traction::wheel_odom::odometry::DiffDriveParams;
+use traction::vslam_core::geometry::Extrinsics;
+use traction::vslam_core::robot::{
+    FlowDescription, ImuDescription, ImuNoise, MountedSensor, RobotDescription, RobotError, Wheels,
+};
 
 /// `mav0/<sensor>/sensor.yaml` under the dataset's root.
 pub(super) fn sensor_yaml(root: &Path, sensor: &str) -> PathBuf {
@@ -52,7 +50,7 @@ fn wheel_type(name: &str) -> WheelType {
 /// (intrinsics, resolution and `T_BS`).
 fn surface_config(
     m: &SegMeta,
-    wheel_meta: &WheelMeta,
+    wheel_type_name: &str,
     path: &Path,
 ) -> Result<SurfaceConfig, CliError> {
     let pairs: Vec<(u8, SurfaceKind)> = m
@@ -75,89 +73,104 @@ fn surface_config(
     )
     .map_err(|e| CliError::file(path, format!("segmentation camera: {e}")))?;
     Ok(SurfaceConfig::for_camera(
-        wheel_type(&wheel_meta.wheel_type),
+        wheel_type(wheel_type_name),
         ClassConfig::from_lists(&pairs, &ground),
         camera,
     ))
 }
 
-/// The estimator's configuration from the dataset's metadata: IMU noise,
-/// wheel geometry (defaults when there are no wheels), flow optics, the
-/// camera's and the IMU's mountings and the surface model.
+/// The robot a dataset describes: its `sensor.yaml` files (wheel geometry and
+/// encoders, IMU noise, every `T_BS`, the flow optics), and for what they do
+/// not say the robot-vacuum preset ([`RobotDescription::robot_vacuum`]: rim
+/// speed, wheel path noise, flow noise; its wheels when `wheel0` is absent)
+/// and, without `imu0`, an identity mounting with [`ImuNoise::default`]. A
+/// description that does not validate is refused with the file to blame.
+pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, CliError> {
+    let yaml = |s: &str| sensor_yaml(root, s);
+    let preset = RobotDescription::robot_vacuum();
+    let imu = match &ds.imu {
+        Some((m, _)) => ImuDescription {
+            mount: extrinsics(&yaml("imu0"), &m.t_bs)?,
+            noise: ImuNoise {
+                accel_density: m.accelerometer_noise_density as f32,
+                gyro_density: m.gyroscope_noise_density as f32,
+                accel_random_walk: m.accelerometer_random_walk as f32,
+                gyro_random_walk: m.gyroscope_random_walk as f32,
+            },
+        },
+        None => ImuDescription {
+            mount: Extrinsics::identity(),
+            noise: ImuNoise::default(),
+        },
+    };
+    let wheels = match &ds.wheel {
+        Some((m, _)) => Wheels {
+            radius_left: m.wheel_radius_left as f32,
+            radius_right: m.wheel_radius_right as f32,
+            track: m.wheel_base as f32,
+            track_factor: 1.0,
+            counts_per_revolution: m.ticks_per_revolution.round() as u32,
+            ..preset.wheels
+        },
+        None => preset.wheels,
+    };
+    let flow = match (&ds.flow, preset.flow) {
+        (Some((m, _)), Some(flow)) => Some(FlowDescription {
+            mount: extrinsics(&yaml("flow0"), &m.t_bs)?,
+            height: m.height as f32,
+            counts_per_radian: m.counts_per_radian as f32,
+            ..flow
+        }),
+        _ => None,
+    };
+    let camera = match &ds.cam {
+        Some((m, _)) => Some(extrinsics(&yaml("cam0"), &m.t_bs)?),
+        None => None,
+    };
+    let robot = RobotDescription {
+        wheels,
+        imu,
+        flow,
+        camera,
+    };
+    robot.validate().map_err(|e| {
+        let folder = match e {
+            RobotError::NonFiniteMount(s) | RobotError::NotARotation(s) => sensor_folder(s),
+            RobotError::BadNoise(Some(s)) => sensor_folder(s),
+            RobotError::FlowBelowFloor | RobotError::BadFlowResolution => "flow0",
+            _ => "wheel0",
+        };
+        CliError::file(&yaml(folder), e.to_string())
+    })?;
+    Ok(robot)
+}
+
+fn sensor_folder(s: MountedSensor) -> &'static str {
+    match s {
+        MountedSensor::Imu => "imu0",
+        MountedSensor::Flow => "flow0",
+        MountedSensor::Camera => "cam0",
+    }
+}
+
+/// The estimator's configuration: [`EstimatorConfig::from_robot`] on the
+/// dataset's [`robot_description`], and the surface model from `seg0`.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
     options: ReplayOptions,
 ) -> Result<EstimatorConfig, CliError> {
-    let mut filter = FilterConfig::default();
-    if let Some((m, _)) = &ds.imu {
-        filter.imu_noise.accel_density = m.accelerometer_noise_density as f32;
-        filter.imu_noise.gyro_density = m.gyroscope_noise_density as f32;
-        filter.imu_noise.accel_random_walk = m.accelerometer_random_walk as f32;
-        filter.imu_noise.gyro_random_walk = m.gyroscope_random_walk as f32;
-    }
-    let default_wheels = WheelMeta {
-        rate_hz: 50.0,
-        ticks_per_revolution: 1024.0,
-        wheel_radius_left: filter.robot.radius as f64,
-        wheel_radius_right: filter.robot.radius as f64,
-        wheel_base: 0.23,
-        wheel_type: String::new(),
-    };
-    let wheel_meta = ds.wheel.as_ref().map(|(m, _)| m).unwrap_or(&default_wheels);
-    let half = 0.5 * wheel_meta.wheel_base as f32;
-    filter.robot.p_bl = Vec3::new(0.0, half, 0.0);
-    filter.robot.p_br = Vec3::new(0.0, -half, 0.0);
-    filter.robot.radius =
-        (0.5 * (wheel_meta.wheel_radius_left + wheel_meta.wheel_radius_right)) as f32;
-    let yaml = |s: &str| root.join("mav0").join(s).join("sensor.yaml");
-    let flow_optics = match &ds.flow {
-        Some((m, _)) => Some(
-            FlowOptics::new(
-                m.counts_per_radian as f32,
-                m.height as f32,
-                extrinsics(&yaml("flow0"), &m.t_bs)?,
-            )
-            .map_err(|e| CliError::file(&yaml("flow0"), e.to_string()))?,
-        ),
-        None => None,
-    };
-    filter.flow = flow_optics.map(FlowConfig::new);
-    let odometry = DiffDriveParams::new(
-        wheel_meta.ticks_per_revolution.round() as u32,
-        wheel_meta.wheel_radius_left as f32,
-        wheel_meta.wheel_radius_right as f32,
-        wheel_meta.wheel_base as f32,
-        3.0,
-        500_000_000,
-    )
-    .map_err(|e| CliError::file(&yaml("wheel0"), format!("{e:?}")))?;
-    let camera_mount = match &ds.cam {
-        Some((m, _)) => extrinsics(&yaml("cam0"), &m.t_bs)?,
-        None => Extrinsics::identity(),
-    };
-    let scale = PipelineConfig {
-        camera: camera_mount,
-        imu: match &ds.imu {
-            Some((m, _)) => extrinsics(&yaml("imu0"), &m.t_bs)?,
-            None => Extrinsics::identity(),
-        },
-        flow_optics,
-        ..PipelineConfig::default()
-    };
-    let surface = match &ds.seg {
-        Some((m, _)) if options.surface_model => {
-            Some(surface_config(m, wheel_meta, &yaml("seg0"))?)
-        }
+    let robot = robot_description(ds, root)?;
+    let mut config = EstimatorConfig::from_robot(&robot)
+        .map_err(|e| CliError::file(root, format!("configuration: {e}")))?;
+    let wheel_type_name = ds.wheel.as_ref().map_or("", |(m, _)| m.wheel_type.as_str());
+    config.surface = match &ds.seg {
+        Some((m, _)) if options.surface_model => Some(surface_config(
+            m,
+            wheel_type_name,
+            &sensor_yaml(root, "seg0"),
+        )?),
         _ => None,
-    };
-    let config = EstimatorConfig {
-        filter,
-        odometry,
-        scale,
-        surface,
-        jolts: JoltConfig::default(),
-        reorder_window_ns: 20_000_000,
     };
     Ok(config)
 }

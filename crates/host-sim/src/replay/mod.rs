@@ -9,6 +9,7 @@ mod config;
 mod report;
 mod run;
 
+pub use config::robot_description;
 pub use report::{summary_table, write_outputs};
 
 use crate::asl::Dataset;

@@ -1,6 +1,7 @@
 //! The simulated world, robot and sensors of `host-sim simulate`.
 pub mod drivers;
 pub mod motion;
+pub mod preset;
 pub mod render;
 pub mod scenario;
 pub mod script;

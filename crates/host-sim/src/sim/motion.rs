@@ -28,15 +28,18 @@ pub struct Robot {
 }
 
 impl Robot {
-    /// A robot vacuum: 35 mm wheels, the left one 2 % larger than nominal,
-    /// the right 1 % smaller, 230 mm track, AS5047P encoders on the wheels.
+    /// The robot-vacuum preset's wheels ([`super::preset`]: 35 mm, 230 mm
+    /// track, AS5047P encoders), the left one truly 2 % larger than nominal,
+    /// the right 1 % smaller.
     pub fn vacuum() -> Self {
+        let wheels = super::preset::preset().wheels;
+        let radius = super::preset::decimal(wheels.mean_radius());
         Robot {
-            nominal_radius: 0.035,
-            radius_left: 0.035 * 1.02,
-            radius_right: 0.035 * 0.99,
-            wheel_base: 0.23,
-            ticks_per_revolution: super::drivers::ENCODER_COUNTS,
+            nominal_radius: radius,
+            radius_left: radius * 1.02,
+            radius_right: radius * 0.99,
+            wheel_base: super::preset::decimal(wheels.track),
+            ticks_per_revolution: f64::from(wheels.counts_per_revolution),
             max_accel: 0.6,
             max_yaw_accel: 3.0,
         }

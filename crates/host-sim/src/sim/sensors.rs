@@ -37,14 +37,17 @@ pub struct ImuModel {
 }
 
 impl ImuModel {
-    /// A consumer MEMS IMU (BMI088-class).
+    /// A consumer MEMS IMU (BMI088-class), with the noise of the
+    /// robot-vacuum preset ([`super::preset`]).
     pub fn mems() -> Self {
+        let n = super::preset::preset().imu.noise;
+        let d = super::preset::decimal;
         ImuModel {
             rate_hz: 250.0,
-            gyro_noise_density: 2.4e-4,
-            gyro_random_walk: 2.0e-5,
-            accel_noise_density: 1.7e-3,
-            accel_random_walk: 3.0e-4,
+            gyro_noise_density: d(n.gyro_density),
+            gyro_random_walk: d(n.gyro_random_walk),
+            accel_noise_density: d(n.accel_density),
+            accel_random_walk: d(n.accel_random_walk),
             gyro_bias: [0.004, -0.003, 0.005],
             accel_bias: [0.05, -0.04, 0.08],
         }
@@ -140,13 +143,18 @@ pub struct FlowModel {
 }
 
 impl FlowModel {
-    /// A PAA5100JE 30 mm above the floor, 10 cm ahead of the axle, looking down
+    /// The robot-vacuum preset's flow sensor
+    /// ([`traction::vslam_core::robot::FlowDescription::robot_vacuum`]): a
+    /// PAA5100JE 30 mm above the floor, 10 cm ahead of the axle, looking down
     /// (sensor x = body x, sensor y = body -y, sensor z = body -z).
     pub fn paa5100() -> Self {
+        let flow = traction::vslam_core::robot::FlowDescription::robot_vacuum();
+        let d = super::preset::decimal;
+        let t = flow.mount.t_bs();
         FlowModel {
             rate_hz: 100.0,
-            t_bs: [0.10, 0.0, 0.03],
-            counts_per_radian: 48.8,
+            t_bs: [d(t.x), d(t.y), d(t.z)],
+            counts_per_radian: d(flow.counts_per_radian),
             scale_noise: 0.02,
         }
     }

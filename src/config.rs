@@ -1,0 +1,119 @@
+//! [`EstimatorConfig::from_robot`]: the estimator's whole configuration from
+//! one [`RobotDescription`], so the wheel geometry, the mountings and the
+//! sensor noise are written down once.
+//!
+//! - the EKF ([`FilterConfig::from_robot`]): IMU noise, the robot prior with
+//!   the contact points seen from the mounted IMU, the flow sensor;
+//! - the wheel odometry ([`DiffDriveParams::from_robot`]): encoders, radii,
+//!   kinematic track, fastest rim speed;
+//! - the scale pipeline: camera, IMU and flow mountings, the flow optics, the
+//!   wheel path noise;
+//! - everything else at its default: no surface model (it needs the
+//!   segmentation camera's class table), default jolt detection, a 20 ms
+//!   ordering window.
+
+use crate::estimator::{EstimatorConfig, EstimatorError};
+use ego_ekf::FilterConfig;
+use ego_ekf::events::JoltConfig;
+use vslam_core::geometry::Extrinsics;
+use vslam_core::robot::RobotDescription;
+use vslam_core::scale::PipelineConfig;
+use wheel_odom::odometry::DiffDriveParams;
+
+/// How long the ordering buffer of [`EstimatorConfig::from_robot`] waits for
+/// late samples, ns.
+pub const REORDER_WINDOW_NS: u64 = 20_000_000;
+
+impl EstimatorConfig {
+    /// The configuration of a described robot; an invalid description is
+    /// refused with [`EstimatorError::Robot`].
+    ///
+    /// ```
+    /// use traction::estimator::{Estimator, EstimatorConfig};
+    /// use traction::vslam_core::robot::RobotDescription;
+    ///
+    /// let config = EstimatorConfig::from_robot(&RobotDescription::robot_vacuum()).unwrap();
+    /// assert_eq!(config.odometry.wheel_base(), 0.23);
+    /// let estimator = Estimator::new(&config, None).unwrap();
+    /// # drop(estimator);
+    /// ```
+    pub fn from_robot(robot: &RobotDescription) -> Result<Self, EstimatorError> {
+        let filter = FilterConfig::from_robot(robot).map_err(EstimatorError::Robot)?;
+        let odometry = DiffDriveParams::from_robot(robot).map_err(EstimatorError::Robot)?;
+        let mut scale = PipelineConfig {
+            camera: robot.camera.unwrap_or(Extrinsics::identity()),
+            imu: robot.imu.mount,
+            flow_optics: filter.flow.map(|f| f.optics),
+            ..PipelineConfig::default()
+        };
+        scale.wheel.rel_sigma = robot.wheels.path_relative_std;
+        Ok(EstimatorConfig {
+            filter,
+            odometry,
+            scale,
+            surface: None,
+            jolts: JoltConfig::default(),
+            reorder_window_ns: REORDER_WINDOW_NS,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vslam_core::geometry::Vec3;
+    use vslam_core::robot::RobotError;
+
+    #[test]
+    fn one_description_feeds_every_part() {
+        let mut r = RobotDescription::robot_vacuum();
+        r.wheels.radius_left = 0.05;
+        r.wheels.radius_right = 0.05;
+        r.wheels.track = 0.3;
+        let c = EstimatorConfig::from_robot(&r).unwrap();
+        // The geometry the odometry and the EKF use is the same: a 50 mm
+        // wheel in one and a 35 mm wheel in the other cannot be written.
+        assert_eq!(c.odometry.left_radius(), c.filter.robot.radius);
+        assert_eq!(c.odometry.right_radius(), c.filter.robot.radius);
+        assert_eq!(c.filter.robot.radius, 0.05);
+        assert_eq!(
+            c.filter.robot.p_bl - c.filter.robot.p_br,
+            Vec3::new(0.0, c.odometry.wheel_base(), 0.0)
+        );
+        let optics = c.scale.flow_optics.unwrap();
+        assert_eq!(Some(optics), c.filter.flow.map(|f| f.optics));
+        assert_eq!(optics.height(), 0.03);
+        assert_eq!(Some(c.scale.camera), r.camera);
+        assert_eq!(c.scale.imu, r.imu.mount);
+        assert!(crate::estimator::Estimator::new(&c, None).is_ok());
+    }
+
+    #[test]
+    fn a_bad_description_is_a_typed_error() {
+        let mut r = RobotDescription::robot_vacuum();
+        r.wheels.radius_left = 0.0;
+        assert_eq!(
+            EstimatorConfig::from_robot(&r).err(),
+            Some(EstimatorError::Robot(RobotError::BadWheelRadius))
+        );
+        let mut r = RobotDescription::robot_vacuum();
+        r.wheels.track = f32::NAN;
+        assert_eq!(
+            EstimatorConfig::from_robot(&r).err(),
+            Some(EstimatorError::Robot(RobotError::BadTrack))
+        );
+        let mut r = RobotDescription::robot_vacuum();
+        r.flow.as_mut().unwrap().height = 0.0;
+        assert_eq!(
+            EstimatorConfig::from_robot(&r).err(),
+            Some(EstimatorError::Robot(RobotError::FlowBelowFloor))
+        );
+        // Without a flow sensor or camera the pipeline has neither.
+        let mut r = RobotDescription::robot_vacuum();
+        r.flow = None;
+        r.camera = None;
+        let c = EstimatorConfig::from_robot(&r).unwrap();
+        assert!(c.filter.flow.is_none() && c.scale.flow_optics.is_none());
+        assert_eq!(c.scale.camera, Extrinsics::identity());
+    }
+}
