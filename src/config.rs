@@ -12,7 +12,7 @@
 //!   segmentation camera's class table), default jolt detection, a 20 ms
 //!   ordering window.
 
-use crate::estimator::{EstimatorConfig, EstimatorError};
+use crate::estimator::{EstimatorConfig, EstimatorError, Mismatch};
 use ego_ekf::FilterConfig;
 use ego_ekf::events::JoltConfig;
 use vslam_core::geometry::Extrinsics;
@@ -58,6 +58,31 @@ impl EstimatorConfig {
     }
 }
 
+/// Largest relative difference [`EstimatorConfig::check`] lets pass between
+/// two copies of the wheel radius (rounding of a hand-written literal).
+const RADIUS_TOLERANCE: f32 = 1e-4;
+
+impl EstimatorConfig {
+    /// Whether the parts describe one robot: the odometry's and the EKF
+    /// prior's wheel radius, and the EKF's and the scale pipeline's flow
+    /// optics. [`crate::Estimator::new`] refuses a configuration that fails,
+    /// so a geometry edited in one part only cannot go unnoticed.
+    pub fn check(&self) -> Result<(), EstimatorError> {
+        let odometry = 0.5 * (self.odometry.left_radius() + self.odometry.right_radius());
+        let filter = self.filter.robot.radius;
+        if !(libm::fabsf(odometry - filter) <= RADIUS_TOLERANCE * libm::fabsf(filter)) {
+            return Err(EstimatorError::Inconsistent(Mismatch::WheelRadius {
+                odometry,
+                filter,
+            }));
+        }
+        if self.filter.flow.map(|f| f.optics) != self.scale.flow_optics {
+            return Err(EstimatorError::Inconsistent(Mismatch::FlowOptics));
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -86,6 +111,42 @@ mod tests {
         assert_eq!(Some(c.scale.camera), r.camera);
         assert_eq!(c.scale.imu, r.imu.mount);
         assert!(crate::estimator::Estimator::new(&c, None).is_ok());
+    }
+
+    #[test]
+    fn a_geometry_edited_in_one_part_only_is_refused() {
+        let good = EstimatorConfig::from_robot(&RobotDescription::robot_vacuum()).unwrap();
+        assert_eq!(good.check(), Ok(()));
+        // 50 mm wheels in the odometry, the EKF prior left at 35 mm.
+        let mut c = good.clone();
+        c.odometry = DiffDriveParams::new(
+            good.odometry.ticks_per_revolution(),
+            0.05,
+            0.05,
+            good.odometry.wheel_base(),
+            good.odometry.max_wheel_speed(),
+            good.odometry.max_step_ns(),
+        )
+        .unwrap();
+        let e = crate::estimator::Estimator::new(&c, None).err();
+        assert_eq!(
+            e,
+            Some(EstimatorError::Inconsistent(Mismatch::WheelRadius {
+                odometry: 0.05,
+                filter: 0.035
+            }))
+        );
+        // A flow sensor the EKF knows and the scale pipeline does not.
+        let mut c = good.clone();
+        c.scale.flow_optics = None;
+        assert_eq!(
+            c.check(),
+            Err(EstimatorError::Inconsistent(Mismatch::FlowOptics))
+        );
+        // A NaN radius is no match either.
+        let mut c = good;
+        c.filter.robot.radius = f32::NAN;
+        assert!(c.check().is_err());
     }
 
     #[test]

@@ -66,6 +66,24 @@ pub enum EstimatorError {
     Scale(PipelineConfigError),
     /// The robot description was refused.
     Robot(RobotError),
+    /// Two parts of the configuration describe the robot differently.
+    Inconsistent(Mismatch),
+}
+
+/// Which quantity two parts of an [`EstimatorConfig`] disagree on (a
+/// configuration built by [`EstimatorConfig::from_robot`] has none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mismatch {
+    /// The odometry's mean wheel radius and the EKF prior's radius, m.
+    WheelRadius {
+        /// Mean of the odometry's two radii.
+        odometry: f32,
+        /// The EKF robot prior's radius.
+        filter: f32,
+    },
+    /// The flow optics of the EKF and of the scale pipeline (counts per
+    /// radian, height or mounting) differ, or only one of them has a flow sensor.
+    FlowOptics,
 }
 
 impl core::fmt::Display for EstimatorError {
@@ -74,6 +92,16 @@ impl core::fmt::Display for EstimatorError {
             EstimatorError::Filter(e) => write!(f, "filter settings: {e:?}"),
             EstimatorError::Scale(e) => write!(f, "scale settings: {e:?}"),
             EstimatorError::Robot(e) => write!(f, "robot description: {e}"),
+            EstimatorError::Inconsistent(Mismatch::WheelRadius { odometry, filter }) => write!(
+                f,
+                "wheel radius {odometry} m in the odometry but {filter} m in the EKF prior \
+                 (build the configuration with EstimatorConfig::from_robot)"
+            ),
+            EstimatorError::Inconsistent(Mismatch::FlowOptics) => write!(
+                f,
+                "the EKF and the scale pipeline have different flow optics \
+                 (build the configuration with EstimatorConfig::from_robot)"
+            ),
         }
     }
 }
@@ -147,6 +175,7 @@ impl<'b> Estimator<'b> {
         config: &EstimatorConfig,
         frontend: Option<FrontEnd<'b>>,
     ) -> Result<Self, EstimatorError> {
+        config.check()?;
         Ok(Estimator {
             ekf: EgoEkf::new(config.filter).map_err(EstimatorError::Filter)?,
             odometry: DiffDriveOdometry::new(config.odometry),
