@@ -100,7 +100,7 @@ fn benches(c: &mut Criterion) {
         0.004,
     );
     let q = process_noise(
-        &FilterConfig::default().imu_noise,
+        &FilterConfig::default().imu.noise,
         &FilterConfig::default().robot,
         0.004,
     );

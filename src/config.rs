@@ -70,7 +70,8 @@ impl EstimatorConfig {
     pub fn check(&self) -> Result<(), EstimatorError> {
         let odometry = 0.5 * (self.odometry.left_radius() + self.odometry.right_radius());
         let filter = self.filter.robot.radius;
-        if !(libm::fabsf(odometry - filter) <= RADIUS_TOLERANCE * libm::fabsf(filter)) {
+        let within = libm::fabsf(odometry - filter) <= RADIUS_TOLERANCE * libm::fabsf(filter);
+        if !within {
             return Err(EstimatorError::Inconsistent(Mismatch::WheelRadius {
                 odometry,
                 filter,

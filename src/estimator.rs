@@ -341,7 +341,7 @@ impl<'b> Estimator<'b> {
 
     fn process_imu(&mut self, raw: &RawImuSample) -> Processed {
         let cfg = self.ekf.config();
-        let outcome = ImuSample::with_range(raw, cfg.imu_gyro_max, cfg.imu_accel_max)
+        let outcome = ImuSample::with_range(raw, cfg.imu.gyro_max, cfg.imu.accel_max)
             .and_then(|s| self.ekf.propagate(&s).map(|step| (s, step)));
         let mut jolt = None;
         if let Ok((sample, step)) = &outcome {

@@ -236,7 +236,7 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
     let mut imu_invalid = SampleCounts::new();
     let mut counts = PerStream::splat(0u32);
     let mut scaled_frames = 0u32;
-    let (gyro_max, accel_max) = (cfg.filter.imu_gyro_max, cfg.filter.imu_accel_max);
+    let (gyro_max, accel_max) = (cfg.filter.imu.gyro_max, cfg.filter.imu.accel_max);
     for record in records {
         let record = record.map_err(RunError::Format)?;
         counts[record.stream()] += 1;

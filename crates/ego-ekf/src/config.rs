@@ -318,20 +318,40 @@ impl Default for GapConfig {
     }
 }
 
-/// Everything the filter needs to know before the first sample.
+/// The IMU: its noise, its timing and its full scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilterConfig {
-    /// IMU noise.
-    pub imu_noise: ImuNoise,
+pub struct ImuConfig {
+    /// Noise densities and bias random walks.
+    pub noise: ImuNoise,
     /// Largest accepted IMU step, ns (larger steps are [`vslam_core::Reject::Gap`]).
-    pub imu_max_dt_ns: u64,
+    pub max_dt_ns: u64,
     /// Full scale of the gyroscope, rad/s; a reading at or beyond it is
     /// [`vslam_core::Reject::Saturated`]
     /// ([`vslam_core::sensors::ImuSample::check_range`]).
-    pub imu_gyro_max: f32,
+    pub gyro_max: f32,
     /// Full scale of the accelerometer, m/s^2; a reading at or beyond it is
     /// [`vslam_core::Reject::Saturated`].
-    pub imu_accel_max: f32,
+    pub accel_max: f32,
+}
+
+impl Default for ImuConfig {
+    /// A consumer MEMS IMU at up to 20 ms a step, +-2000 deg/s and +-16 g.
+    fn default() -> Self {
+        ImuConfig {
+            noise: ImuNoise::default(),
+            max_dt_ns: 20_000_000,
+            gyro_max: 35.0,
+            accel_max: 160.0,
+        }
+    }
+}
+
+/// Everything the filter needs to know before the first sample: one config
+/// struct per sensor, then the filter's own settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterConfig {
+    /// The IMU.
+    pub imu: ImuConfig,
     /// The wheel encoders.
     pub wheel: WheelConfig,
     /// Getting out of a wheel lockout.
@@ -355,10 +375,7 @@ pub struct FilterConfig {
 impl Default for FilterConfig {
     fn default() -> Self {
         FilterConfig {
-            imu_noise: ImuNoise::default(),
-            imu_max_dt_ns: 20_000_000,
-            imu_gyro_max: 35.0,
-            imu_accel_max: 160.0,
+            imu: ImuConfig::default(),
             wheel: WheelConfig::default(),
             recovery: RecoveryConfig::default(),
             gap: GapConfig::default(),
@@ -380,7 +397,10 @@ impl FilterConfig {
     pub fn from_robot(robot: &RobotDescription) -> Result<Self, RobotError> {
         robot.validate()?;
         Ok(FilterConfig {
-            imu_noise: robot.imu.noise,
+            imu: ImuConfig {
+                noise: robot.imu.noise,
+                ..ImuConfig::default()
+            },
             robot: RobotPrior::from_robot(robot),
             flow: robot
                 .flow
@@ -422,7 +442,7 @@ fn positive(v: f32) -> bool {
 impl FilterConfig {
     /// Checks every field once so the filter need not check again.
     pub fn check(&self) -> Result<(), ConfigError> {
-        let n = &self.imu_noise;
+        let n = &self.imu.noise;
         let i = &self.init;
         let z = &self.zupt;
         let r = &self.robot;
@@ -452,8 +472,8 @@ impl FilterConfig {
             r.radius_random_walk,
             r.contact_random_walk,
             r.rotation_random_walk,
-            self.imu_gyro_max,
-            self.imu_accel_max,
+            self.imu.gyro_max,
+            self.imu.accel_max,
             self.recovery.steady_tolerance,
             self.gap.accel_density,
             self.gap.gyro_density,
@@ -480,7 +500,7 @@ impl FilterConfig {
         if !vectors_finite || !positive(r.radius) || !positive(self.gravity) {
             return Err(ConfigError::BadGeometry);
         }
-        if self.imu_max_dt_ns == 0
+        if self.imu.max_dt_ns == 0
             || self.wheel.max_dt_ns == 0
             || self.wheel.max_age_ns == 0
             || i.samples == 0

@@ -155,7 +155,7 @@ impl EgoEkf {
             grip: config.grip,
             initialised: false,
             initialiser: Initialiser::new(),
-            imu_clock: SampleClock::new(config.imu_max_dt_ns),
+            imu_clock: SampleClock::new(config.imu.max_dt_ns),
             imu_counts: SampleCounts::new(),
             last_step: None,
             still: StillDetector::new(),
@@ -250,7 +250,7 @@ impl EgoEkf {
     }
 
     fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
-        sample.check_range(self.config.imu_gyro_max, self.config.imu_accel_max)?;
+        sample.check_range(self.config.imu.gyro_max, self.config.imu.accel_max)?;
         let previous = self.imu_clock.last();
         let dt = self.imu_clock.accept(sample.t());
         if self.initialised
@@ -296,7 +296,7 @@ impl EgoEkf {
         self.clone_if_due(still);
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
         let f = Transition::new(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu_noise, &self.config.robot, dt);
+        let q = process_noise(&self.config.imu.noise, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         if self.clone_due {
             propagate_covariance_clone_decoupled(&mut self.p, &f, &q);

@@ -50,8 +50,8 @@ pub mod zupt;
 
 pub use aid_status::{AidOutcome, AidStatus, FlowStatus, WheelStatus, ZuptStatus};
 pub use config::{
-    ConfigError, FilterConfig, FlowConfig, GapConfig, ImuNoise, InitConfig, RecoveryConfig,
-    RobotPrior, WheelConfig, ZuptConfig,
+    ConfigError, FilterConfig, FlowConfig, GapConfig, ImuConfig, ImuNoise, InitConfig,
+    RecoveryConfig, RobotPrior, WheelConfig, ZuptConfig,
 };
 pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};
 pub use flow::FlowFused;

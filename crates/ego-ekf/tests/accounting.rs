@@ -271,7 +271,7 @@ fn flow_reports_are_checked_gated_and_counted() {
 #[test]
 fn bad_configurations_are_refused() {
     let mut c = FilterConfig::default();
-    c.imu_noise.gyro_density = -1.0;
+    c.imu.noise.gyro_density = -1.0;
     assert_eq!(EgoEkf::new(c).err(), Some(ego_ekf::ConfigError::BadNoise));
     let mut c = FilterConfig::default();
     c.robot.radius = 0.0;
@@ -279,9 +279,7 @@ fn bad_configurations_are_refused() {
         EgoEkf::new(c).err(),
         Some(ego_ekf::ConfigError::BadGeometry)
     );
-    let c = FilterConfig {
-        imu_max_dt_ns: 0,
-        ..FilterConfig::default()
-    };
+    let mut c = FilterConfig::default();
+    c.imu.max_dt_ns = 0;
     assert_eq!(EgoEkf::new(c).err(), Some(ego_ekf::ConfigError::BadLimit));
 }

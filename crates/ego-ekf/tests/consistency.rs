@@ -44,12 +44,12 @@ fn draw(seed: u64, c: &FilterConfig) -> (Sim, ExplicitStart) {
         radius_right: r.radius as f64 + rng.normal() * r.radius_std as f64,
     };
     let noise = SimNoise {
-        accel_density: c.imu_noise.accel_density as f64,
-        gyro_density: c.imu_noise.gyro_density as f64,
+        accel_density: c.imu.noise.accel_density as f64,
+        gyro_density: c.imu.noise.gyro_density as f64,
         accel_bias: rng.vec3(i.accel_bias_std as f64),
         gyro_bias: rng.vec3(i.gyro_bias_std as f64),
-        accel_random_walk: c.imu_noise.accel_random_walk as f64,
-        gyro_random_walk: c.imu_noise.gyro_random_walk as f64,
+        accel_random_walk: c.imu.noise.accel_random_walk as f64,
+        gyro_random_walk: c.imu.noise.gyro_random_walk as f64,
         wheel_std: c.grip.forward_std() as f64,
         flow_std: 0.005,
     };

@@ -29,8 +29,8 @@ fn run(with_flow: bool, seconds: u64) -> (EgoEkf, [f64; 2]) {
         radius_right: truth[1],
     };
     let noise = SimNoise {
-        accel_density: c.imu_noise.accel_density as f64,
-        gyro_density: c.imu_noise.gyro_density as f64,
+        accel_density: c.imu.noise.accel_density as f64,
+        gyro_density: c.imu.noise.gyro_density as f64,
         accel_bias: Vec3::new(0.02, -0.03, 0.01),
         gyro_bias: Vec3::new(0.002, -0.001, 0.003),
         accel_random_walk: 0.0,

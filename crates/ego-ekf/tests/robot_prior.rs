@@ -69,7 +69,7 @@ fn identity_mounting_puts_the_contact_points_on_the_axle() {
     assert_eq!(c.robot.p_br, Vector3::new(0.0, -0.115, 0.0));
     assert_eq!(c.robot.q_rb, nalgebra::UnitQuaternion::identity());
     assert_eq!(c.robot.radius, 0.035);
-    assert_eq!(c.imu_noise, r.imu.noise);
+    assert_eq!(c.imu.noise, r.imu.noise);
     let flow = c.flow.unwrap();
     let described = r.flow.unwrap();
     assert_eq!(flow.optics.height(), described.height);

@@ -2,7 +2,7 @@
 //! not dead-reckon it (see [`crate::gap`]).
 //!
 //! When the IMU stream breaks for longer than the configured step
-//! (`FilterConfig::imu_max_dt_ns`), the sample after the break is refused
+//! (`ImuConfig::max_dt_ns`), the sample after the break is refused
 //! ([`vslam_core::Reject::Gap`]) and the clock restarts at it, so the next
 //! step integrates only the normal interval. The robot kept moving meanwhile,
 //! unmeasured; left alone, the filter would keep its old position with its old
@@ -51,7 +51,7 @@ pub fn bridge_gap(
         .zip_apply(&v_cols, |a, b| *a += t * b);
     let q = config.gap.accel_density * config.gap.accel_density;
     let q_yaw = config.gap.gyro_density * config.gap.gyro_density;
-    let imu = process_noise(&config.imu_noise, &config.robot, t);
+    let imu = process_noise(&config.imu.noise, &config.robot, t);
     for (i, q_imu) in imu.iter().enumerate() {
         if let Some(d) = next.get_mut((i, i)) {
             *d += q_imu;

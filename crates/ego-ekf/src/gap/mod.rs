@@ -1,7 +1,7 @@
 //! Bridging an IMU gap.
 //!
 //! When the IMU stream breaks for longer than the configured step
-//! (`FilterConfig::imu_max_dt_ns`; a silent or saturated IMU), the sample
+//! (`ImuConfig::max_dt_ns`; a silent or saturated IMU), the sample
 //! after the break is refused ([`vslam_core::Reject::Gap`]) and first bridges
 //! the gap: the robot kept moving, and turning, unmeasured by the IMU. Left
 //! alone, the filter would keep its old pose with its old confidence and gate

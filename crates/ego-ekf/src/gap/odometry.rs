@@ -3,7 +3,7 @@
 //!
 //! The filter offers every wheel sample. One counts as *during a gap* when
 //! its time stamp lies more than the IMU's longest step
-//! (`FilterConfig::imu_max_dt_ns`) after the filter's latest IMU time: the
+//! (`ImuConfig::max_dt_ns`) after the filter's latest IMU time: the
 //! IMU is late. The first such sample anchors the integration at that IMU
 //! time (its rates are the average over the interval ending at it, which
 //! covers the anchor); later ones extend it. Refused, counted in
@@ -116,7 +116,7 @@ impl GapOdometry {
     pub fn during_gap(imu_last: Timestamp, t: Timestamp, config: &FilterConfig) -> bool {
         config.gap.wheels
             && t.nanos_since(imu_last)
-                .is_some_and(|ahead| ahead > config.imu_max_dt_ns)
+                .is_some_and(|ahead| ahead > config.imu.max_dt_ns)
     }
 
     /// Offers a wheel sample, with the filter's latest IMU time and, if

@@ -225,7 +225,7 @@ pub fn bridge_with_wheels(
     let q_wheels = g * sigma * g.transpose();
     next.fixed_view_mut::<POSE_VEL, POSE_VEL>(0, 0)
         .zip_apply(&q_wheels, |a, b| *a += b);
-    let imu = process_noise(&config.imu_noise, &config.robot, gap_s);
+    let imu = process_noise(&config.imu.noise, &config.robot, gap_s);
     for (i, q_imu) in imu.iter().enumerate() {
         if let Some(d) = next.get_mut((i, i)) {
             *d += q_imu;

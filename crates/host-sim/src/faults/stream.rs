@@ -77,7 +77,7 @@ impl SensorSample for RawImuSample {
             FaultKind::ImuNan => self.gyro[0] = f32::NAN,
             FaultKind::ImuInf => self.accel[1] = f32::INFINITY,
             FaultKind::ImuOutlier => self.gyro[2] *= 100.0,
-            FaultKind::ImuSaturated => self.gyro[2] = FilterConfig::default().imu_gyro_max,
+            FaultKind::ImuSaturated => self.gyro[2] = FilterConfig::default().imu.gyro_max,
             FaultKind::ImuStuck => match before {
                 Some(b) => {
                     self.gyro = b.gyro;
