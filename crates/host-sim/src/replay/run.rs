@@ -256,12 +256,10 @@ impl Collected {
             },
         ));
         match outcome {
-            Ok(Some(d)) => {
-                self.decisions.push(decision_json(t, &d));
-                let b = est.scale().body_pose();
-                self.vslam.push(pose(t, b.translation.vector, &b.rotation));
-            }
-            Ok(None) => {
+            Ok(decision) => {
+                if let Some(d) = decision {
+                    self.decisions.push(decision_json(t, &d));
+                }
                 let b = est.scale().body_pose();
                 self.vslam.push(pose(t, b.translation.vector, &b.rotation));
             }
