@@ -27,8 +27,7 @@
 //! assert_eq!(format_seconds(Timestamp::from_nanos(1_500_000_001)), "1.500000001");
 //! # Ok::<(), host_sim::CliError>(())
 //! ```
-// Parts of the readers and simulators are used only by tests until every
-// command that uses them has landed.
+// Parts of the readers and simulators are used only by the tests.
 #![allow(dead_code)]
 
 pub mod asl;
