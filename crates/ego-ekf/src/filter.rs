@@ -18,8 +18,9 @@ use crate::propagate::{
 };
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Verdict};
 use crate::state::{
-    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
+    BA, BG, CL, CLONE, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
 };
+use crate::update::{Measurement, UpdateReport, gated_update};
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
 
@@ -480,6 +481,38 @@ impl EgoEkf {
         let out = self
             .flow
             .fuse(&mut self.x, &mut self.p, &gyro, sample, &config, now);
+        debug_assert!(covariance::looks_valid(&self.p));
+        out
+    }
+
+    /// Fuses a measurement formed outside this crate (a new aid written
+    /// against the public API; `tests/new_aid.rs` is a worked example) at
+    /// the filter's time: the shared gated update
+    /// ([`crate::update::gated_update`]: chi-square gate `gate` on the NIS
+    /// when given, Kalman update, injection into the nominal state, error
+    /// reset), as the built-in aids run it.
+    ///
+    /// The aid forms `m` against [`EgoEkf::state`] (and, for its status,
+    /// `P H^T` from [`EgoEkf::covariance`]), checks its own sample times
+    /// against [`EgoEkf::time`], and keeps its own counts and
+    /// [`crate::AidStatus`]. `m.h` must be zero on the pose clone's columns
+    /// ([`crate::state::CLONE`]: the zero-velocity update's bookkeeping,
+    /// kept decoupled while the robot moves), else [`Reject::Degenerate`].
+    /// Before the filter starts every measurement is [`Reject::NotReady`].
+    /// On any error the state and covariance are unchanged.
+    pub fn fuse_external<const M: usize>(
+        &mut self,
+        m: &Measurement<M>,
+        gate: Option<f32>,
+    ) -> Result<UpdateReport, Reject> {
+        if !self.initialised || self.imu_clock.last().is_none() {
+            return Err(Reject::NotReady);
+        }
+        let touches_clone = m.h.columns_range(CLONE).iter().any(|v| *v != 0.0);
+        if touches_clone {
+            return Err(Reject::Degenerate);
+        }
+        let out = gated_update(&mut self.x, &mut self.p, m, gate);
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }
