@@ -29,7 +29,9 @@
 //! and covariance itself (`EgoEkf::fuse_flow` does); outside it,
 //! [`EgoEkf::fuse_external`] is that call.
 //!
-//! The tests: the aid corrects a velocity error that a run without it keeps
+//! The tests: the rows are the derivative of the prediction (central
+//! differences through [`ego_ekf::state::NominalState::inject`], zero
+//! outside the support); the aid corrects a velocity error that a run without it keeps
 //! (so they fail if the update is not applied), and a grossly wrong sample
 //! is gated by the Mahalanobis test, recorded as [`AidOutcome::Gated`],
 //! and leaves the state unchanged.
@@ -43,7 +45,7 @@ use vslam_core::{Reject, Timestamp};
 mod scan {
     use ego_ekf::aid_status::{innovation_covariance, innovation_variances, nis};
     use ego_ekf::covariance::skew;
-    use ego_ekf::state::{DIM, columns, columns_len};
+    use ego_ekf::state::{DIM, NominalState, Vec3, columns, columns_len};
     use ego_ekf::update::{Measurement, UpdateReport};
     use ego_ekf::{AidOutcome, AidStatus, EgoEkf};
     use nalgebra::{Matrix3, SMatrix, SVector};
@@ -98,15 +100,20 @@ mod scan {
     /// The blocks the measurement depends on, named in the state table.
     const BLOCKS: [&str; 6] = ["v_wb", "q_wb", "gyro_bias", "p_bl", "p_br", "q_rb"];
     /// Their error-state columns, three per block, in the order of `BLOCKS`.
-    const SUPPORT: [usize; columns_len(&BLOCKS)] = columns(&BLOCKS);
+    pub const SUPPORT: [usize; columns_len(&BLOCKS)] = columns(&BLOCKS);
 
     /// The measurement rows of a sample against the filter's state: the
     /// robot origin's velocity, robot frame, horizontal part,
     /// `h = [R_rb (R_wb^T v + w x p_mid)]_xy`, whose Jacobian is the flow's
     /// (`crates/ego-ekf/src/flow/model.rs`).
     pub fn measurement(ekf: &EgoEkf, s: &ScanVelocity) -> Measurement<2> {
-        let x = ekf.state();
-        let gyro = ekf.angular_velocity();
+        measurement_at(ekf.state(), &ekf.angular_velocity(), s)
+    }
+
+    /// [`measurement`] against the state `x` and the bias-corrected body
+    /// rate `gyro`.
+    pub fn measurement_at(x: &NominalState, gyro: &Vec3, s: &ScanVelocity) -> Measurement<2> {
+        let gyro = *gyro;
         let r_rb = x.q_rb.to_rotation_matrix().into_inner();
         let r_wb = x.q_wb.to_rotation_matrix().into_inner();
         let v_b = r_wb.transpose() * x.v_wb;
@@ -319,4 +326,41 @@ fn the_hook_refuses_rows_on_the_clone_and_an_unstarted_filter() {
     let x = *f.state();
     assert_eq!(f.fuse_external(&m, None), Err(Reject::Degenerate));
     assert_eq!(*f.state(), x);
+}
+
+#[test]
+fn the_rows_are_the_derivative_of_the_prediction() {
+    // A moving, turning, tilted state, so that every block of H is nonzero.
+    let mut x = *filter().state();
+    x.v_wb = Vector3::new(0.4, -0.2, 0.05);
+    x.q_wb = UnitQuaternion::from_euler_angles(0.05, -0.03, 0.7);
+    x.q_rb = UnitQuaternion::from_euler_angles(0.02, 0.01, -0.04);
+    // The raw rate: the measurement sees it less the (perturbed) bias.
+    let raw_gyro = Vector3::new(0.1, -0.05, 0.8);
+    let s = ScanVelocity::new(Timestamp(0), 0.0, 0.0, 1.0).unwrap();
+    let at =
+        |x: &ego_ekf::state::NominalState| scan::measurement_at(x, &(raw_gyro - x.gyro_bias), &s);
+    let m = at(&x);
+    let eps = 1e-3;
+    for j in 0..ego_ekf::state::DIM {
+        let moved = |sign: f32| {
+            let mut dx = ego_ekf::state::ErrorState::zeros();
+            dx[j] = sign * eps;
+            let mut xp = x;
+            xp.inject(&dx);
+            at(&xp).residual
+        };
+        // residual = z - h(x): the prediction's change is minus the residual's.
+        let numeric = -(moved(1.0) - moved(-1.0)) / (2.0 * eps);
+        for r in 0..2 {
+            let (a, n) = (m.h[(r, j)], numeric[r]);
+            assert!(
+                (a - n).abs() < 2e-3,
+                "row {r} column {j}: H {a}, numeric {n}"
+            );
+        }
+        if !scan::SUPPORT.contains(&j) {
+            assert_eq!(m.h.column(j).amax(), 0.0, "column {j} outside the support");
+        }
+    }
 }
