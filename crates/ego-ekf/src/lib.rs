@@ -17,7 +17,9 @@
 //! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
 //!   of a lockout from the most trusted source);
 //!   [`gap`]: bridging an IMU gap;
-//! - [`filter`]: [`EgoEkf`], the type users call.
+//! - [`filter`]: [`EgoEkf`], the type users call; an aid written outside
+//!   the crate fuses through [`EgoEkf::fuse_external`] (a worked example:
+//!   `tests/new_aid.rs`).
 //!
 //! # Example
 //!
