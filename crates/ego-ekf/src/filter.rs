@@ -1,11 +1,10 @@
 //! The filter: one type that takes IMU, wheel and flow samples, owns the
 //! state, covariance, grip and per-sensor status, and reports the estimate.
+//! Here the steps that change it; its read side (accessors, statuses, counts) is in `filter/read.rs`.
 
-use vslam_core::kinematics::add_lever_arm;
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-use crate::aid_status::{FlowStatus, WheelStatus, ZuptStatus};
 use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
 use crate::flow::{FlowFused, FlowFusion};
@@ -17,11 +16,12 @@ use crate::propagate::{
     propagate_nominal, vertical_deviation,
 };
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Verdict};
-use crate::state::{
-    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
-};
+use crate::state::{CLONE, Covariance, NominalState, P, Quat, TH, V, Vec3};
+use crate::update::{Measurement, UpdateReport, gated_update};
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
+
+mod read;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
@@ -484,218 +484,40 @@ impl EgoEkf {
         out
     }
 
+    /// Fuses a measurement formed outside this crate (a new aid written
+    /// against the public API; `tests/new_aid.rs` is a worked example) at
+    /// the filter's time: the shared gated update
+    /// ([`crate::update::gated_update`]: chi-square gate `gate` on the NIS
+    /// when given, Kalman update, injection into the nominal state, error
+    /// reset), as the built-in aids run it.
+    ///
+    /// The aid forms `m` against [`EgoEkf::state`] (and, for its status,
+    /// `P H^T` from [`EgoEkf::covariance`]), checks its own sample times
+    /// against [`EgoEkf::time`], and keeps its own counts and
+    /// [`crate::AidStatus`]. `m.h` must be zero on the pose clone's columns
+    /// ([`crate::state::CLONE`]: the zero-velocity update's bookkeeping,
+    /// kept decoupled while the robot moves), else [`Reject::Degenerate`].
+    /// Before the filter starts every measurement is [`Reject::NotReady`].
+    /// On any error the state and covariance are unchanged.
+    pub fn fuse_external<const M: usize>(
+        &mut self,
+        m: &Measurement<M>,
+        gate: Option<f32>,
+    ) -> Result<UpdateReport, Reject> {
+        if !self.initialised || self.imu_clock.last().is_none() {
+            return Err(Reject::NotReady);
+        }
+        let touches_clone = m.h.columns_range(CLONE).iter().any(|v| *v != 0.0);
+        if touches_clone {
+            return Err(Reject::Degenerate);
+        }
+        let out = gated_update(&mut self.x, &mut self.p, m, gate);
+        debug_assert!(covariance::looks_valid(&self.p));
+        out
+    }
+
     /// Sets the grip the surface model derived for the current floor.
     pub fn set_grip(&mut self, grip: GripParams) {
         self.grip = grip;
-    }
-
-    /// The current grip.
-    pub fn grip(&self) -> GripParams {
-        self.grip
-    }
-
-    /// The configuration.
-    pub fn config(&self) -> &FilterConfig {
-        &self.config
-    }
-
-    /// Whether the filter has started.
-    pub fn is_initialised(&self) -> bool {
-        self.initialised
-    }
-
-    /// Whether the robot is still (zero-velocity updates running).
-    pub fn is_still(&self) -> bool {
-        self.still.is_still(&self.config.zupt)
-    }
-
-    /// Time of the latest accepted IMU sample.
-    pub fn time(&self) -> Option<Timestamp> {
-        if self.initialised {
-            self.imu_clock.last()
-        } else {
-            None
-        }
-    }
-
-    /// The whole nominal state.
-    pub fn state(&self) -> &NominalState {
-        &self.x
-    }
-
-    /// The error-state covariance.
-    pub fn covariance(&self) -> &Covariance {
-        &self.p
-    }
-
-    /// IMU position, world, m.
-    pub fn position(&self) -> Vec3 {
-        self.x.p_wb
-    }
-
-    /// IMU attitude (body vectors into the world).
-    pub fn attitude(&self) -> Quat {
-        self.x.q_wb
-    }
-
-    /// IMU velocity, world, m/s.
-    pub fn velocity(&self) -> Vec3 {
-        self.x.v_wb
-    }
-
-    /// Velocity of the robot origin (mid-axle), robot frame, m/s.
-    pub fn robot_velocity(&self) -> Vec3 {
-        let v_b = self.x.q_wb.inverse() * self.x.v_wb;
-        self.x.q_rb * add_lever_arm(&v_b, &self.angular_velocity(), &self.x.p_b_robot())
-    }
-
-    /// Bias-corrected angular rate of the latest step, body frame, rad/s.
-    pub fn angular_velocity(&self) -> Vec3 {
-        self.last_step.map_or(Vec3::zeros(), |s| s.gyro)
-    }
-
-    /// Accelerometer bias, m/s^2.
-    pub fn accel_bias(&self) -> Vec3 {
-        self.x.accel_bias
-    }
-
-    /// Gyroscope bias, rad/s.
-    pub fn gyro_bias(&self) -> Vec3 {
-        self.x.gyro_bias
-    }
-
-    /// Wheel radii `[left, right]`, m.
-    pub fn wheel_radii(&self) -> [f32; 2] {
-        [self.x.radius_left, self.x.radius_right]
-    }
-
-    /// Standard deviation of error-state component `i` (`NaN` outside the state).
-    pub fn std_dev(&self, i: usize) -> f32 {
-        self.p
-            .get((i, i))
-            .map_or(f32::NAN, |v| libm::sqrtf(v.max(0.0)))
-    }
-
-    fn std3(&self, i: usize) -> Vec3 {
-        Vec3::new(self.std_dev(i), self.std_dev(i + 1), self.std_dev(i + 2))
-    }
-
-    /// Position standard deviation, m.
-    pub fn position_std(&self) -> Vec3 {
-        self.std3(P)
-    }
-
-    /// Velocity standard deviation, m/s.
-    pub fn velocity_std(&self) -> Vec3 {
-        self.std3(V)
-    }
-
-    /// Attitude standard deviation (local angles), rad.
-    pub fn attitude_std(&self) -> Vec3 {
-        self.std3(TH)
-    }
-
-    /// Accelerometer bias standard deviation, m/s^2.
-    pub fn accel_bias_std(&self) -> Vec3 {
-        self.std3(BA)
-    }
-
-    /// Gyroscope bias standard deviation, rad/s.
-    pub fn gyro_bias_std(&self) -> Vec3 {
-        self.std3(BG)
-    }
-
-    /// Wheel radius standard deviations `[left, right]`, m.
-    pub fn wheel_radius_std(&self) -> [f32; 2] {
-        [self.std_dev(RAD_L), self.std_dev(RAD_R)]
-    }
-
-    /// Contact-point standard deviations `[left, right]`, m.
-    pub fn contact_std(&self) -> [Vec3; 2] {
-        [self.std3(CL), self.std3(CR)]
-    }
-
-    /// Clone standard deviations `(position, attitude)`. The clone is taken
-    /// at the first still step after motion (the zero-velocity update reads
-    /// it); while the robot moves it is the last one taken, kept decoupled,
-    /// so these are its variances from then, not the current pose's.
-    pub fn clone_std(&self) -> (Vec3, Vec3) {
-        (self.std3(CP), self.std3(CTH))
-    }
-
-    /// The latest IMU step (bias-corrected sample, vertical deviation).
-    pub fn last_imu_step(&self) -> Option<ImuStep> {
-        self.last_step
-    }
-
-    /// The wheels' status after their latest sample: forward and
-    /// differential rows (see [`crate::aid_status`]).
-    pub fn wheel_status(&self) -> Option<&WheelStatus> {
-        self.wheel.status()
-    }
-
-    /// The optical flow's status after its latest report.
-    pub fn flow_status(&self) -> Option<&FlowStatus> {
-        self.flow.status()
-    }
-
-    /// The zero-velocity update's status after the latest update.
-    pub fn zupt_status(&self) -> Option<&ZuptStatus> {
-        self.zupt.status()
-    }
-
-    /// IMU samples propagated and rejected by reason.
-    pub fn imu_counts(&self) -> &SampleCounts {
-        &self.imu_counts
-    }
-
-    /// Wheel samples fused, gated and rejected by reason.
-    pub fn wheel_counts(&self) -> &SampleCounts {
-        self.wheel.counts()
-    }
-
-    /// Velocity resets to the flow after runs of gated flow reports.
-    pub fn flow_resets(&self) -> u32 {
-        self.flow.resets()
-    }
-
-    /// Verdicts after runs of gated wheel samples: velocity resets by source,
-    /// and re-examinations that kept gating (see [`crate::recovery`]).
-    pub fn recovery(&self) -> &RecoveryCounts {
-        &self.recovery
-    }
-
-    /// The mean of the recent flow reports of valid quality and plausible
-    /// speed, at the filter's time (see [`crate::recovery::FlowWindow`]).
-    pub fn flow_witness(&self) -> Option<crate::recovery::FlowWitness> {
-        self.flow.witness(self.time()?)
-    }
-
-    /// IMU gaps bridged (see [`crate::gap`]).
-    pub fn gaps(&self) -> &GapCounts {
-        &self.gaps
-    }
-
-    /// Wheel samples that dead-reckoned IMU gaps, and those refused for it
-    /// by reason (see [`crate::gap::odometry`]); the same samples are also in
-    /// [`EgoEkf::wheel_counts`] with the wheel update's outcome.
-    pub fn gap_wheel_counts(&self) -> &SampleCounts {
-        self.gap_odometry.counts()
-    }
-
-    /// Of those, the samples whose wheels disagreed with the flow (spinning)
-    /// and were scaled to its speed.
-    pub fn gap_wheel_slips(&self) -> u32 {
-        self.gap_odometry.slips()
-    }
-
-    /// Flow reports fused, gated and rejected by reason.
-    pub fn flow_counts(&self) -> &SampleCounts {
-        self.flow.counts()
-    }
-
-    /// Zero-velocity updates fused and rejected.
-    pub fn zupt_counts(&self) -> &SampleCounts {
-        self.zupt.counts()
     }
 }

@@ -17,7 +17,37 @@
 //! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
 //!   of a lockout from the most trusted source);
 //!   [`gap`]: bridging an IMU gap;
-//! - [`filter`]: [`EgoEkf`], the type users call.
+//! - [`filter`]: [`EgoEkf`], the type users call; an aid written outside
+//!   the crate fuses through [`EgoEkf::fuse_external`] (a worked example:
+//!   `tests/new_aid.rs`).
+//!
+//! # Example
+//!
+//! A filter for a typical robot vacuum, started from still IMU samples
+//! (250 Hz, gravity only), then read:
+//!
+//! ```
+//! use ego_ekf::{EgoEkf, FilterConfig};
+//! use vslam_core::{Reject, RobotDescription, Timestamp};
+//! use vslam_core::sensors::ImuSample;
+//!
+//! let config = FilterConfig::from_robot(&RobotDescription::robot_vacuum())?;
+//! let mut ekf = EgoEkf::new(config).expect("a valid config");
+//! for k in 0..300u64 {
+//!     let t = Timestamp(k * 4_000_000);
+//!     let imu = ImuSample::new(t, [0.0; 3], [0.0, 0.0, 9.806_65])?;
+//!     // The first still samples initialise the filter (`NotReady` meanwhile).
+//!     match ekf.propagate(&imu) {
+//!         Ok(_) | Err(Reject::NotReady) => {}
+//!         Err(other) => panic!("IMU sample refused: {other}"),
+//!     }
+//! }
+//! assert!(ekf.is_initialised());
+//! assert!(ekf.velocity().norm() < 1e-3);
+//! println!("position {:?} +- {:?} m", ekf.position(), ekf.position_std());
+//! println!("gyro bias std {:?} rad/s", ekf.gyro_bias_std());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![no_std]
 #![cfg_attr(
     not(test),

@@ -31,7 +31,7 @@ pub struct SimulateArgs {
     /// Output folder.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
-    /// Faults to inject, KIND@START[+DUR][xCOUNT] comma-separated (seconds
+    /// Faults to inject, `KIND@START[+DUR][xCOUNT]`, comma-separated (seconds
     /// from the start), e.g. `imu-nan@4x3,wheel-gap@5+0.5,stuck@6+2`.
     /// report.json then has a `faults` section. Kinds (-> the outcome every
     /// spoiled sample must end in):
