@@ -192,6 +192,12 @@ pub fn innovation_variances<const M: usize>(
     })
 }
 
+/// The diagonal of an innovation covariance formed by the update
+/// ([`crate::update::gated_update_reporting`]); `NaN`s when there is none.
+pub fn diagonal<const M: usize>(s: Option<&SMatrix<f32, M, M>>) -> [f32; M] {
+    core::array::from_fn(|i| s.and_then(|s| s.get((i, i)).copied()).unwrap_or(f32::NAN))
+}
+
 /// The normalised innovation squared `y^T S^-1 y` by Cholesky; `NaN` when
 /// `S` is not positive definite.
 pub fn nis<const M: usize>(s: &SMatrix<f32, M, M>, y: &SVector<f32, M>) -> f32 {

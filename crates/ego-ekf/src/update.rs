@@ -218,6 +218,45 @@ pub fn gated_update_with<const M: usize>(
     update_with_support(x, p, m, &Support::of(&m.h), pht, gate)
 }
 
+/// [`gated_update`] that also hands back the innovation covariance
+/// `S = H P H^T + R` it formed, for the aid's status record (its diagonal,
+/// and the NIS of a gated measurement), so the caller does not form `P H^T`
+/// or `S` a second time. `S` is `None` when the measurement was refused as
+/// non-finite before it was formed. The same bits as [`gated_update`].
+pub fn gated_update_reporting<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    m: &Measurement<M>,
+    gate: Option<f32>,
+) -> (Result<UpdateReport, Reject>, Option<SMatrix<f32, M, M>>) {
+    if !m.is_finite() {
+        return (Err(Reject::NonFinite), None);
+    }
+    let support = Support::of(&m.h);
+    let pht = support.p_ht(p);
+    let s = innovation_covariance(m, &support, &pht);
+    (fuse_prepared(x, p, &pht, &s, &m.residual, gate), Some(s))
+}
+
+/// `S = H (P H^T) + R` over the support of `H`: column `c` gains
+/// `(P H^T)[j, c]` times column `j` of `H`, for each nonzero column `j`.
+fn innovation_covariance<const M: usize>(
+    m: &Measurement<M>,
+    support: &Support<'_, M>,
+    pht: &SMatrix<f32, DIM, M>,
+) -> SMatrix<f32, M, M> {
+    let mut s = m.noise;
+    for (j, h) in support.iter() {
+        for (s_col, pht_col) in s.data.0.iter_mut().zip(pht.data.0.iter()) {
+            let v = pht_col.get(j).copied().unwrap_or(0.0);
+            for (sv, hv) in s_col.iter_mut().zip(h) {
+                *sv += v * hv;
+            }
+        }
+    }
+    s
+}
+
 /// The update proper, with the support of `H` and `P H^T` known.
 fn update_with_support<const M: usize>(
     x: &mut NominalState,
@@ -230,17 +269,7 @@ fn update_with_support<const M: usize>(
     if !m.is_finite() {
         return Err(Reject::NonFinite);
     }
-    // S = H (P H^T) + R over the support of H: column c gains
-    // (P H^T)[j, c] times column j of H, for each nonzero column j.
-    let mut s = m.noise;
-    for (j, h) in support.iter() {
-        for (s_col, pht_col) in s.data.0.iter_mut().zip(pht.data.0.iter()) {
-            let v = pht_col.get(j).copied().unwrap_or(0.0);
-            for (sv, hv) in s_col.iter_mut().zip(h) {
-                *sv += v * hv;
-            }
-        }
-    }
+    let s = innovation_covariance(m, support, pht);
     fuse_prepared(x, p, pht, &s, &m.residual, gate)
 }
 

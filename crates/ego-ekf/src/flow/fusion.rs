@@ -39,15 +39,13 @@ use nalgebra::Vector2;
 use vslam_core::sensors::FlowSample;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-use crate::aid_status::{
-    AidOutcome, AidStatus, FlowStatus, innovation_covariance, innovation_variances, nis,
-};
+use crate::aid_status::{AidOutcome, AidStatus, FlowStatus, diagonal, nis};
 use crate::config::FlowConfig;
 use crate::covariance::reset_velocity;
 use crate::flow::model::{flow_measurement, flow_std, flow_velocity};
 use crate::recovery::{FlowWindow, FlowWitness, flow_reset_due};
 use crate::state::{Covariance, NominalState, Vec3};
-use crate::update::gated_update_with;
+use crate::update::gated_update_reporting;
 
 /// What a fused flow report said: the short answer of
 /// [`crate::EgoEkf::fuse_flow`]; the report's full record is its
@@ -214,8 +212,7 @@ impl FlowFusion {
     ) -> Result<FlowFused, Reject> {
         let Checked { t, z, std, .. } = *report;
         let m = flow_measurement(x, gyro, &z, std);
-        let pht = m.p_ht(p);
-        let result = gated_update_with(x, p, &m, &pht, Some(config.gate));
+        let (result, s) = gated_update_reporting(x, p, &m, Some(config.gate));
         let (outcome, nis) = match result {
             Ok(update) => {
                 self.gated_run = 0;
@@ -231,7 +228,7 @@ impl FlowFusion {
             }
             Err(Reject::Gated) => {
                 self.gated_run = self.gated_run.saturating_add(1);
-                let nis = nis(&innovation_covariance(&m, &pht), &m.residual);
+                let nis = s.as_ref().map_or(f32::NAN, |s| nis(s, &m.residual));
                 if flow_reset_due(config, self.gated_run, report.plausible) {
                     self.gated_run = 0;
                     self.resets = self.resets.saturating_add(1);
@@ -258,7 +255,7 @@ impl FlowFusion {
         let var = std * std;
         let status = AidStatus::new(t, aid_outcome, self.status.as_ref())
             .with_observation([z.x, z.y], [var, var])
-            .with_innovation([m.residual.x, m.residual.y], innovation_variances(&m, &pht))
+            .with_innovation([m.residual.x, m.residual.y], diagonal(s.as_ref()))
             .with_test(nis, Some(config.gate));
         self.keep(status);
         outcome

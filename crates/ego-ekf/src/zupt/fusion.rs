@@ -4,10 +4,10 @@
 
 use vslam_core::{Reject, SampleCounts, Timestamp};
 
-use crate::aid_status::{AidOutcome, AidStatus, ZuptStatus, innovation_variances};
+use crate::aid_status::{AidOutcome, AidStatus, ZuptStatus, diagonal};
 use crate::config::ZuptConfig;
 use crate::state::{Covariance, NominalState};
-use crate::update::gated_update_with;
+use crate::update::gated_update_reporting;
 use crate::zupt::model::zupt_measurement;
 
 /// The zero-velocity update's counters and status.
@@ -46,8 +46,7 @@ impl ZuptFusion {
         t: Timestamp,
     ) -> Result<(), Reject> {
         let m = zupt_measurement(x, config);
-        let pht = m.p_ht(p);
-        let result = gated_update_with(x, p, &m, &pht, None);
+        let (result, s) = gated_update_reporting(x, p, &m, None);
         let outcome = result.map(|_| ());
         self.counts.record(outcome);
         let status = AidStatus::new(t, AidOutcome::of(&outcome), self.status.as_ref())
@@ -55,7 +54,7 @@ impl ZuptFusion {
                 [0.0; 9],
                 core::array::from_fn(|i| m.noise.get((i, i)).copied().unwrap_or(f32::NAN)),
             )
-            .with_innovation(m.residual.data.0[0], innovation_variances(&m, &pht))
+            .with_innovation(m.residual.data.0[0], diagonal(s.as_ref()))
             .with_test(result.map_or(f32::NAN, |r| r.nis), None);
         self.status = Some(status);
         outcome
