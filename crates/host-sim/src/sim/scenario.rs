@@ -44,7 +44,7 @@ pub struct Scenario {
 }
 
 /// Names of the scenarios `simulate --scenario` knows.
-pub const SCENARIOS: [&str; 3] = ["office", "slip", "short"];
+pub const SCENARIOS: [&str; 4] = ["office", "slip", "short", "straight"];
 
 impl Scenario {
     /// The scenario called `name`.
@@ -95,6 +95,15 @@ impl Scenario {
                 let mut s = base;
                 s.name = "short";
                 s.script.duration = 12.0;
+                Some(s)
+            }
+            // An even wood floor, constant speed, 10 m straight, no slip
+            // episodes, no strips or cables.
+            "straight" => {
+                let mut s = base;
+                s.name = "straight";
+                s.world = World::straight();
+                s.script = Script::straight();
                 Some(s)
             }
             _ => None,

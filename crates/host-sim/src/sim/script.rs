@@ -199,6 +199,26 @@ impl Script {
     }
 }
 
+impl Script {
+    /// The straight drive (36 s): 1 s standing, 10 m straight ahead at a
+    /// constant 0.3 m/s, 1 s standing; no episodes. The case where fusing the
+    /// sensors must not make the estimate worse than the best of them.
+    pub fn straight() -> Self {
+        Script {
+            segments: vec![
+                Segment::Wait { duration: 1.0 },
+                Segment::Straight {
+                    length: 10.0,
+                    speed: 0.3,
+                },
+                Segment::Wait { duration: 1.0 },
+            ],
+            episodes: Vec::new(),
+            duration: 36.0,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,5 +237,23 @@ mod tests {
         assert_eq!(s.episode(47.0), None);
         let total: f64 = s.segments.iter().map(Segment::duration).sum();
         assert!(total > 55.0 && total < 70.0, "{total}");
+    }
+
+    #[test]
+    fn the_straight_drive_is_ten_metres_at_constant_speed() {
+        let s = Script::straight();
+        assert!(s.episodes.is_empty());
+        let moving = s.segments.iter().map(Segment::duration).sum::<f64>();
+        assert!(moving <= s.duration, "{moving} {}", s.duration);
+        let length: f64 = s
+            .segments
+            .iter()
+            .map(|g| g.command().0 * g.duration())
+            .sum();
+        assert!((length - 10.0).abs() < 1e-9, "{length}");
+        for t in [2.0, 10.0, 20.0, 30.0] {
+            assert_eq!(s.command(t), (0.3, 0.0), "{t}");
+        }
+        assert_eq!(s.command(35.5).0, 0.0);
     }
 }

@@ -177,6 +177,22 @@ impl World {
     }
 }
 
+impl World {
+    /// One long room of wood and nothing on the floor: the even floor of the
+    /// `straight` scenario, under the office's ceiling.
+    pub fn straight() -> Self {
+        World {
+            rooms: vec![Room {
+                min: [-1.0, -2.5],
+                max: [12.5, 2.5],
+                surface: Surface::Wood,
+            }],
+            strips: Vec::new(),
+            ..World::office()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -193,5 +209,15 @@ mod tests {
         let half = w.wheel_lift(4.0 + 0.02 + 0.5 * (2.0f64 * 0.035 * 0.006).sqrt(), 0.035);
         assert!((half - 0.003).abs() < 1e-9, "{half}");
         assert!(w.strip_at(2.003).is_some_and(|s| !s.threshold));
+    }
+
+    #[test]
+    fn the_straight_world_is_wood_with_nothing_on_it() {
+        let w = World::straight();
+        for x in [-0.5, 0.0, 2.0, 4.0, 8.0, 11.0, 12.4] {
+            assert_eq!(w.surface_at(x, 0.0), Some(Surface::Wood), "{x}");
+            assert_eq!(w.wheel_lift(x, 0.035), 0.0, "{x}");
+        }
+        assert_eq!(w.ceiling_height, World::office().ceiling_height);
     }
 }
