@@ -19,7 +19,8 @@ use std::path::PathBuf;
                   OUT/wheel_only.tum, OUT/report.json and OUT/trajectory.svg, then prints a \
                   summary table against the truth. Scenarios: office (default, 60 s: wood with a \
                   cable, carpet, tile, threshold strips, two wheel-spin episodes and a stuck \
-                  episode), slip (the office with longer, stronger slip), short (first 12 s)."
+                  episode), slip (the office with longer, stronger slip), short (first 12 s), \
+                  straight (36 s: 10 m straight at 0.3 m/s on an even wood floor, no slip episodes)."
 )]
 pub struct SimulateArgs {
     /// Scenario name.
