@@ -26,7 +26,7 @@ use ego_ekf::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_dense,
 };
 use ego_ekf::reference::gated_update_dense;
-use ego_ekf::state::{Quat, Vec3};
+use ego_ekf::state::Vec3;
 use ego_ekf::update::gated_update;
 use ego_ekf::wheel::model::{wheel_measurement, wheel_rows};
 use ego_ekf::wheel::update::update as wheel_update;
@@ -39,15 +39,7 @@ const DT: u64 = 4_000_000;
 /// A filter after 2 s of seeded driving, so the covariance is dense.
 fn warmed_up() -> (EgoEkf, u64) {
     let mut f = EgoEkf::new(FilterConfig::default()).unwrap();
-    f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vec3::zeros(),
-        v_wb: Vec3::zeros(),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
-    })
-    .unwrap();
+    f.start(&ExplicitStart::at_rest(Timestamp(0))).unwrap();
     let mut seed = 0x1234_5678u32;
     let mut noise = move || {
         seed ^= seed << 13;

@@ -13,7 +13,6 @@
 //! divided by the number of steps (printed) are the instructions per step.
 #![allow(missing_docs, clippy::unwrap_used)]
 
-use ego_ekf::state::{Quat, Vec3};
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
 use vslam_core::Timestamp;
 use vslam_core::sensors::{ImuSample, WheelRates};
@@ -41,15 +40,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(1000);
     let mut f = EgoEkf::new(FilterConfig::default()).unwrap();
-    f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vec3::zeros(),
-        v_wb: Vec3::zeros(),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
-    })
-    .unwrap();
+    f.start(&ExplicitStart::at_rest(Timestamp(0))).unwrap();
     // The same seeded drive as `benches/ekf.rs`.
     let mut seed = 0x1234_5678u32;
     let mut noise = move || {

@@ -88,6 +88,21 @@ pub struct ExplicitStart {
     pub gyro_bias: Vec3,
 }
 
+impl ExplicitStart {
+    /// Level, standing still at the world origin, biases zero, at time `t`:
+    /// the start to change one field of (`ExplicitStart { v_wb, ..at_rest(t) }`).
+    pub fn at_rest(t: Timestamp) -> Self {
+        ExplicitStart {
+            t,
+            p_wb: Vec3::zeros(),
+            v_wb: Vec3::zeros(),
+            q_wb: Quat::identity(),
+            accel_bias: Vec3::zeros(),
+            gyro_bias: Vec3::zeros(),
+        }
+    }
+}
+
 /// The 250 Hz surface-aware error-state EKF.
 #[derive(Clone, Debug)]
 pub struct EgoEkf {

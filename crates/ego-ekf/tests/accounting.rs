@@ -10,15 +10,7 @@ use vslam_core::{Reject, Timestamp};
 const DT: u64 = 4_000_000;
 
 fn level_start(f: &mut EgoEkf, t: u64) {
-    f.start(&ExplicitStart {
-        t: Timestamp(t),
-        p_wb: Vec3::zeros(),
-        v_wb: Vec3::zeros(),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
-    })
-    .unwrap();
+    f.start(&ExplicitStart::at_rest(Timestamp(t))).unwrap();
 }
 
 fn rest(t: u64) -> ImuSample {

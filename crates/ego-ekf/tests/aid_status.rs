@@ -2,7 +2,7 @@
 //! for every aid, filled by every sample, agreeing with what the fusion call
 //! returned and with the counters.
 
-use ego_ekf::state::{Quat, STANDARD_GRAVITY, Vec3};
+use ego_ekf::state::STANDARD_GRAVITY;
 use ego_ekf::{AidOutcome, EgoEkf, ExplicitStart, FilterConfig, FlowConfig};
 use vslam_core::geometry::Extrinsics;
 use vslam_core::sensors::{FlowOptics, FlowSample, ImuSample, WheelRates};
@@ -11,15 +11,7 @@ use vslam_core::{Reject, Timestamp};
 const DT: u64 = 4_000_000;
 
 fn level_start(f: &mut EgoEkf) {
-    f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vec3::zeros(),
-        v_wb: Vec3::zeros(),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
-    })
-    .unwrap();
+    f.start(&ExplicitStart::at_rest(Timestamp(0))).unwrap();
 }
 
 fn rest(t: u64) -> ImuSample {

@@ -31,12 +31,9 @@ fn drive_then_stop(moving: u64, total: u64, mut on_step: impl FnMut(&EgoEkf, Vec
     let config = FilterConfig::default();
     let mut f = EgoEkf::new(config).unwrap();
     f.start(&ExplicitStart {
-        t: Timestamp(0),
         p_wb: Vec3::new(1.0, -0.5, 0.05),
         v_wb: Vec3::new(SPEED, 0.0, 0.0),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     let dt = DT as f32 * 1e-9;

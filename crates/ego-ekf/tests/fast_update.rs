@@ -101,15 +101,7 @@ fn wheel_update_equals_dense_joseph_form() {
 #[test]
 fn wheel_update_on_the_filters_covariance_equals_dense_joseph_form() {
     let mut f = EgoEkf::new(FilterConfig::default()).unwrap();
-    f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vec3::zeros(),
-        v_wb: Vec3::zeros(),
-        q_wb: Quat::identity(),
-        accel_bias: Vec3::zeros(),
-        gyro_bias: Vec3::zeros(),
-    })
-    .unwrap();
+    f.start(&ExplicitStart::at_rest(Timestamp(0))).unwrap();
     let mut rng = Rng(7);
     let dt = 4_000_000u64;
     for i in 1..=500u64 {

@@ -9,7 +9,7 @@
 mod support;
 
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use support::{IMU_DT_NS, Rng};
 use vslam_core::geometry::Extrinsics;
 use vslam_core::sensors::{FlowOptics, FlowSample, ImuSample, WheelRates};
@@ -114,12 +114,9 @@ fn filter() -> EgoEkf {
     assert_eq!(c.flow.unwrap().max_age_ns, (FLOW_MAX_AGE * 1e9) as u64);
     let mut f = EgoEkf::new(c).unwrap();
     f.start(&ExplicitStart {
-        t: Timestamp(0),
         p_wb: Vector3::new(0.0, 0.0, IMU_HEIGHT as f32),
         v_wb: Vector3::new(0.25, 0.0, 0.0),
-        q_wb: UnitQuaternion::identity(),
-        accel_bias: Vector3::zeros(),
-        gyro_bias: Vector3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     f

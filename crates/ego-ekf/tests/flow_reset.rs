@@ -4,7 +4,7 @@
 //! test).
 
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use vslam_core::geometry::Extrinsics;
 use vslam_core::sensors::{FlowOptics, FlowSample, ImuSample};
 use vslam_core::{Reject, Timestamp};
@@ -18,12 +18,8 @@ fn filter(reset_after_gated: u16) -> EgoEkf {
     let mut f = EgoEkf::new(config).unwrap();
     // The filter believes it drives 1 m/s forward; the robot stands still.
     f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vector3::zeros(),
         v_wb: Vector3::new(1.0, 0.0, 0.0),
-        q_wb: UnitQuaternion::identity(),
-        accel_bias: Vector3::zeros(),
-        gyro_bias: Vector3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     f

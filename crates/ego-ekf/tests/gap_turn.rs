@@ -9,7 +9,7 @@ mod support;
 
 use ego_ekf::state::TH;
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use support::{IMU_DT_NS, Rng};
 use vslam_core::sensors::{ImuSample, WheelRates};
 use vslam_core::{Reject, Timestamp};
@@ -77,12 +77,9 @@ fn filter(wheels: bool, turn: &Turn) -> EgoEkf {
     c.init.accel_bias_std = 1e-4;
     let mut f = EgoEkf::new(c).unwrap();
     f.start(&ExplicitStart {
-        t: Timestamp(0),
         p_wb: Vector3::new(0.0, 0.0, IMU_HEIGHT as f32),
         v_wb: Vector3::new(turn.v as f32, 0.0, 0.0),
-        q_wb: UnitQuaternion::identity(),
-        accel_bias: Vector3::zeros(),
-        gyro_bias: Vector3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     f

@@ -21,7 +21,7 @@ mod surface_support;
 use ego_ekf::events::{JoltConfig, JoltEvent, JoltKind, JoltMonitor};
 use ego_ekf::surface::{SurfaceConfig, SurfaceKind, SurfaceModel, WheelType};
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig, ResetSource, Verdict};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use support::{FLOW_CPR, FLOW_HEIGHT, IMU_DT_NS, Rng, flow_optics};
 use vslam_core::image::LabelView;
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
@@ -103,13 +103,9 @@ fn config(flow: bool, recovery: bool) -> FilterConfig {
 fn start(config: FilterConfig) -> EgoEkf {
     let mut f = EgoEkf::new(config).unwrap();
     f.start(&ExplicitStart {
-        t: Timestamp(0),
         // The IMU sits on the axle: its velocity is the robot's.
-        p_wb: Vector3::zeros(),
         v_wb: Vector3::new(0.3, 0.0, 0.0),
-        q_wb: UnitQuaternion::identity(),
-        accel_bias: Vector3::zeros(),
-        gyro_bias: Vector3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     f

@@ -229,12 +229,8 @@ fn filter() -> EgoEkf {
     config.init.velocity_std = 0.5;
     let mut f = EgoEkf::new(config).unwrap();
     f.start(&ExplicitStart {
-        t: Timestamp(0),
-        p_wb: Vector3::zeros(),
         v_wb: Vector3::new(0.3, 0.1, 0.0),
-        q_wb: UnitQuaternion::identity(),
-        accel_bias: Vector3::zeros(),
-        gyro_bias: Vector3::zeros(),
+        ..ExplicitStart::at_rest(Timestamp(0))
     })
     .unwrap();
     f

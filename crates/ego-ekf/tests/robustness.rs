@@ -4,7 +4,6 @@
 //! positive definite and the state finite.
 
 use ego_ekf::covariance::is_positive_definite;
-use ego_ekf::state::{Quat, Vec3};
 use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -86,15 +85,8 @@ fn covariance_stays_positive_definite_under_random_samples() {
         .run(&proptest::collection::vec(event(), 1..300), |events| {
             let mut f = EgoEkf::new(config).unwrap();
             let mut t = 1_000_000_000i64;
-            f.start(&ExplicitStart {
-                t: Timestamp(t as u64),
-                p_wb: Vec3::zeros(),
-                v_wb: Vec3::zeros(),
-                q_wb: Quat::identity(),
-                accel_bias: Vec3::zeros(),
-                gyro_bias: Vec3::zeros(),
-            })
-            .unwrap();
+            f.start(&ExplicitStart::at_rest(Timestamp(t as u64)))
+                .unwrap();
             let (mut imu, mut wheel, mut flow) = (0u32, 0u32, 0u32);
             for e in &events {
                 match *e {
