@@ -37,11 +37,11 @@ pub mod error;
 pub mod faults;
 pub mod matches;
 pub mod metrics;
+pub mod plot;
 pub mod pngio;
 pub mod replay;
 pub mod sim;
 pub mod simulate;
-pub mod svg;
 pub mod tum;
 
 pub use error::CliError;

@@ -10,6 +10,7 @@ use crate::asl::{GroundTruth, read_dataset, write_dataset};
 use crate::error::CliError;
 use crate::faults::report::{FaultLog, FaultOutcome, Injected, faults_section, outcomes};
 use crate::faults::{FaultPlan, Stage, Stream, inject};
+use crate::plot::Scene;
 use crate::replay::{Feed, ReplayOptions, ReplayOutput, replay_feed, run_replay, write_outputs};
 use crate::sim::scenario::{SCENARIOS, Scenario, generate_with};
 use std::collections::HashMap;
@@ -46,6 +47,7 @@ pub fn run_simulate(
     clear(&dataset)?;
     let (ds, _truth, _) = generate_with(&scenario, seed, &dataset, &FaultPlan::none())?;
     write_dataset(&dataset, &ds)?;
+    Scene::of(&scenario).write(&dataset)?;
     run_replay(&dataset, out, progress)
 }
 
@@ -135,6 +137,8 @@ pub fn simulate_faults(
     log.injected
         .extend(crate::faults::scenario::spoiled(plan, &wheel_times));
     write_dataset(&dataset, &ds)?;
+    let scene = Scene::of(&sc);
+    scene.write(&dataset)?;
 
     // The log as recorded, then the stream faults on its way to the estimator.
     let ds = read_dataset(&dataset)?;
@@ -214,7 +218,7 @@ pub fn simulate_faults(
         "imu_steps_checked": h.steps, "non_finite_steps": h.non_finite, "not_spd_steps": h.not_spd,
     });
     let truth = ds.groundtruth.clone().unwrap_or_default();
-    write_outputs(out, &output, Some(&truth))?;
+    write_outputs(out, &output, Some(&truth), Some(&scene))?;
     Ok(FaultRun {
         output,
         log,

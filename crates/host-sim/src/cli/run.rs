@@ -16,7 +16,7 @@ use std::path::PathBuf;
     long_about = "Simulates a robot vacuum driving through rooms with different floors and slip \
                   episodes, writes the generated sensor log as an ASL dataset to OUT/dataset, \
                   replays it through the estimator and writes OUT/ekf.tum, OUT/vslam.tum, \
-                  OUT/wheel_only.tum, OUT/report.json and OUT/trajectory.svg, then prints a \
+                  OUT/wheel_only.tum, OUT/report.json, OUT/trajectory.svg, OUT/errors.svg and OUT/report.html, then prints a \
                   summary table against the truth. Scenarios: office (default, 60 s: wood with a \
                   cable, carpet, tile, threshold strips, two wheel-spin episodes and a stuck \
                   episode), slip (the office with longer, stronger slip), short (first 12 s), \
@@ -51,7 +51,7 @@ fn faults_long_help() -> String {
     long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, cam0, seg0, \
                   state_groundtruth_estimate0; any may be absent, the report names what is missing), runs it \
                   through the estimator and writes DIR/ekf.tum, DIR/vslam.tum, \
-                  DIR/wheel_only.tum, DIR/report.json and DIR/trajectory.svg. With ground truth \
+                  DIR/wheel_only.tum, DIR/report.json, DIR/trajectory.svg, DIR/errors.svg and DIR/report.html. With ground truth \
                   present it prints the summary table. Exit codes: 2 for bad input (the file and \
                   line are named); nothing is written then."
 )]
@@ -80,7 +80,7 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
         println!("missing sensors: {}", r.report["missing_sensors"]);
     }
     println!(
-        "wrote {}/{{ekf.tum,vslam.tum,wheel_only.tum,report.json,trajectory.svg}}",
+        "wrote {}/{{ekf.tum,vslam.tum,wheel_only.tum,report.json,trajectory.svg,errors.svg,report.html}}",
         out.display()
     );
 }

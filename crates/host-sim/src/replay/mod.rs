@@ -1,7 +1,7 @@
 //! Replay of a recorded ASL dataset through `traction::Estimator`, and the
 //! files it writes: `ekf.tum`, `vslam.tum`, `wheel_only.tum`, `report.json`,
-//! `trajectory.svg`. All estimation happens in the no_std crates; this
-//! module only reads, feeds, collects and writes: `config.rs` builds the
+//! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
+//! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
 //! the estimator, `report.rs` writes the report and the summary.
 
@@ -171,8 +171,9 @@ pub fn run_replay_with(
     options: ReplayOptions,
 ) -> Result<ReplayOutput, CliError> {
     let ds = crate::asl::read_dataset(dataset)?;
+    let scene = crate::plot::Scene::read(dataset)?;
     let r = replay_with(&ds, dataset, progress, options)?;
-    write_outputs(out, &r, ds.groundtruth.as_deref())?;
+    write_outputs(out, &r, ds.groundtruth.as_deref(), scene.as_ref())?;
     Ok(r)
 }
 

@@ -7,8 +7,10 @@ use super::ReplayOutput;
 use super::run::Collected;
 use crate::asl::GroundTruth;
 use crate::error::CliError;
-use crate::svg::{Series, top_view};
-use crate::tum::{TumPose, write_tum};
+use crate::plot::{
+    PlotInputs, Scene, errors::errors_svg, html::report_html, trajectory::trajectory_svg,
+};
+use crate::tum::write_tum;
 use serde_json::{Value, json};
 use std::path::Path;
 use traction::estimator::Estimator;
@@ -130,61 +132,47 @@ fn report_with_errors(r: &ReplayOutput) -> Value {
     report
 }
 
-/// The top view: truth (when given), EKF, camera and wheel-only paths.
-fn trajectory_svg(r: &ReplayOutput, truth: Option<&[GroundTruth]>) -> String {
-    let xy = |v: &[TumPose]| v.iter().map(|p| (p.p[0], p.p[1])).collect::<Vec<_>>();
-    let (e, v, w) = (xy(&r.ekf), xy(&r.vslam), xy(&r.wheel_only));
-    let t: Vec<(f64, f64)> = truth
-        .map(|g| g.iter().map(|g| (g.p[0], g.p[1])).collect())
-        .unwrap_or_default();
-    let mut series = vec![
-        Series {
-            label: "EKF",
-            colour: "#d62728",
-            points: &e,
-        },
-        Series {
-            label: "VSLAM (metric scale)",
-            colour: "#1f77b4",
-            points: &v,
-        },
-        Series {
-            label: "wheel only",
-            colour: "#ff7f0e",
-            points: &w,
-        },
-    ];
-    if !t.is_empty() {
-        series.insert(
-            0,
-            Series {
-                label: "truth",
-                colour: "black",
-                points: &t,
-            },
-        );
-    }
-    top_view("traction: top view", &series)
-}
-
 /// Writes the replay's files into `out`.
 pub fn write_outputs(
     out_dir: &Path,
     r: &ReplayOutput,
     truth: Option<&[GroundTruth]>,
+    scene: Option<&Scene>,
 ) -> Result<(), CliError> {
     std::fs::create_dir_all(out_dir)
         .map_err(|e| CliError::file(out_dir, format!("cannot create: {e}")))?;
     write_tum(&out_dir.join("ekf.tum"), &r.ekf)?;
     write_tum(&out_dir.join("vslam.tum"), &r.vslam)?;
     write_tum(&out_dir.join("wheel_only.tum"), &r.wheel_only)?;
-    let text = serde_json::to_string_pretty(&report_with_errors(r))
+    let report = report_with_errors(r);
+    let text = serde_json::to_string_pretty(&report)
         .map_err(|e| CliError::file(out_dir, e.to_string()))?;
-    let p = out_dir.join("report.json");
-    std::fs::write(&p, text).map_err(|e| CliError::file(&p, format!("cannot write: {e}")))?;
-    let p = out_dir.join("trajectory.svg");
-    std::fs::write(&p, trajectory_svg(r, truth))
-        .map_err(|e| CliError::file(&p, format!("cannot write: {e}")))
+    write(&out_dir.join("report.json"), &text)?;
+    let inputs = PlotInputs {
+        ekf: &r.ekf,
+        vslam: &r.vslam,
+        wheel_only: &r.wheel_only,
+        truth,
+        scene,
+        report: &report,
+    };
+    let trajectory = trajectory_svg(&inputs);
+    let errors = errors_svg(&inputs);
+    write(&out_dir.join("trajectory.svg"), &trajectory)?;
+    write(&out_dir.join("errors.svg"), &errors)?;
+    let summary = if r.errors.is_empty() {
+        String::new()
+    } else {
+        summary_table(r)
+    };
+    write(
+        &out_dir.join("report.html"),
+        &report_html(&inputs, &trajectory, &errors, &summary),
+    )
+}
+
+fn write(p: &Path, text: &str) -> Result<(), CliError> {
+    std::fs::write(p, text).map_err(|e| CliError::file(p, format!("cannot write: {e}")))
 }
 
 /// The error table: one line per trajectory.

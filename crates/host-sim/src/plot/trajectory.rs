@@ -1,7 +1,47 @@
-//! Top view of trajectories as a standalone SVG file: one polyline per
+//! `trajectory.svg`: top view of the trajectories, one polyline per
 //! trajectory, equal scale on both axes, a metre grid and a legend.
 
+use super::{EKF_COLOUR, PlotInputs, TRUTH_COLOUR, VSLAM_COLOUR, WHEEL_COLOUR};
+use crate::tum::TumPose;
 use std::fmt::Write as _;
+
+/// Renders `trajectory.svg`: truth (when given), EKF, camera and wheel-only paths.
+pub fn trajectory_svg(i: &PlotInputs<'_>) -> String {
+    let xy = |v: &[TumPose]| v.iter().map(|p| (p.p[0], p.p[1])).collect::<Vec<_>>();
+    let (e, v, w) = (xy(i.ekf), xy(i.vslam), xy(i.wheel_only));
+    let t: Vec<(f64, f64)> = i
+        .truth
+        .map(|g| g.iter().map(|g| (g.p[0], g.p[1])).collect())
+        .unwrap_or_default();
+    let mut series = vec![
+        Series {
+            label: "EKF",
+            colour: EKF_COLOUR,
+            points: &e,
+        },
+        Series {
+            label: "VSLAM (metric scale)",
+            colour: VSLAM_COLOUR,
+            points: &v,
+        },
+        Series {
+            label: "wheel only",
+            colour: WHEEL_COLOUR,
+            points: &w,
+        },
+    ];
+    if !t.is_empty() {
+        series.insert(
+            0,
+            Series {
+                label: "truth",
+                colour: TRUTH_COLOUR,
+                points: &t,
+            },
+        );
+    }
+    top_view("traction: top view", &series)
+}
 
 /// One trajectory to draw.
 pub struct Series<'a> {

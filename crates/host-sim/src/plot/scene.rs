@@ -1,0 +1,152 @@
+//! What the simulator knows and a recorded log does not: the floor map
+//! (rooms and their surfaces), threshold strips and cables, and the timed
+//! slip, stuck and lift episodes. `simulate` writes it beside the dataset as
+//! `DATASET/world.json`; `replay` reads it when it is there, and the plots
+//! draw it as a background map and markers.
+
+use crate::error::CliError;
+use crate::sim::scenario::Scenario;
+use crate::sim::script::EpisodeKind;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// File name of the scene, in the dataset folder (beside `mav0`).
+pub const SCENE_FILE: &str = "world.json";
+
+/// One room: an axis-aligned rectangle of one floor surface.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneRoom {
+    /// Lower corner `[x, y]`, metres.
+    pub min: [f64; 2],
+    /// Upper corner `[x, y]`, metres.
+    pub max: [f64; 2],
+    /// Surface name (`wood`, `carpet`, `tile`, `concrete`).
+    pub surface: String,
+}
+
+/// A raised line across the floor at `x = at`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneStrip {
+    /// Position along x, metres.
+    pub at: f64,
+    /// Height, metres.
+    pub height: f64,
+    /// `true` for a threshold strip, `false` for a cable (an obstacle).
+    pub threshold: bool,
+}
+
+/// A timed episode of the drive.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneEpisode {
+    /// Start, nanoseconds (the simulator's logs start at 0).
+    pub start_ns: u64,
+    /// End, nanoseconds.
+    pub end_ns: u64,
+    /// `slip`, `stuck` or `lifted`.
+    pub kind: String,
+}
+
+/// The simulated world and the drive's episodes.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Scene {
+    /// Scenario name.
+    pub scenario: String,
+    /// Rooms.
+    pub rooms: Vec<SceneRoom>,
+    /// Threshold strips and cables.
+    pub strips: Vec<SceneStrip>,
+    /// Slip, stuck and lift episodes.
+    pub episodes: Vec<SceneEpisode>,
+}
+
+fn ns(seconds: f64) -> u64 {
+    (seconds.max(0.0) * 1e9).round() as u64
+}
+
+impl Scene {
+    /// The scene of scenario `sc`.
+    pub fn of(sc: &Scenario) -> Self {
+        Scene {
+            scenario: sc.name.to_string(),
+            rooms: sc
+                .world
+                .rooms
+                .iter()
+                .map(|r| SceneRoom {
+                    min: r.min,
+                    max: r.max,
+                    surface: r.surface.name().to_string(),
+                })
+                .collect(),
+            strips: sc
+                .world
+                .strips
+                .iter()
+                .map(|s| SceneStrip {
+                    at: s.at,
+                    height: s.height,
+                    threshold: s.threshold,
+                })
+                .collect(),
+            episodes: sc
+                .script
+                .episodes
+                .iter()
+                .map(|e| SceneEpisode {
+                    start_ns: ns(e.start),
+                    end_ns: ns(e.end),
+                    kind: match e.kind {
+                        EpisodeKind::Spin(_) => "slip",
+                        EpisodeKind::Stuck => "stuck",
+                        EpisodeKind::Lifted => "lifted",
+                    }
+                    .to_string(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Writes `DATASET/world.json`.
+    pub fn write(&self, dataset: &Path) -> Result<(), CliError> {
+        let p = dataset.join(SCENE_FILE);
+        let text =
+            serde_json::to_string_pretty(self).map_err(|e| CliError::file(&p, e.to_string()))?;
+        std::fs::write(&p, text).map_err(|e| CliError::file(&p, format!("cannot write: {e}")))
+    }
+
+    /// Reads `DATASET/world.json`; `Ok(None)` when the dataset has none (a
+    /// recorded log).
+    pub fn read(dataset: &Path) -> Result<Option<Self>, CliError> {
+        let p = dataset.join(SCENE_FILE);
+        if !p.exists() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&p)
+            .map_err(|e| CliError::file(&p, format!("cannot read: {e}")))?;
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| CliError::file(&p, format!("not a scene: {e}")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_office_scene_round_trips_through_its_file() {
+        let sc = Scenario::by_name("office").unwrap();
+        let scene = Scene::of(&sc);
+        assert!(scene.rooms.iter().any(|r| r.surface == "carpet"));
+        assert!(scene.strips.iter().any(|s| !s.threshold), "the cable");
+        assert!(scene.episodes.iter().any(|e| e.kind == "stuck"));
+        let dir = std::env::temp_dir().join(format!("scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        scene.write(&dir).unwrap();
+        assert_eq!(Scene::read(&dir).unwrap(), Some(scene));
+        std::fs::write(dir.join(SCENE_FILE), "{").unwrap();
+        assert!(Scene::read(&dir).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(Scene::read(&dir).unwrap(), None);
+    }
+}
