@@ -4,9 +4,12 @@
 //! Plain SVG text with no scripts and no fonts of its own, so a browser, an
 //! SVG renderer (the tests use resvg) or an editor shows the same thing.
 
+pub mod axes;
 pub mod errors;
 pub mod html;
+pub mod markers;
 pub mod scene;
+pub mod track;
 pub mod trajectory;
 
 pub use scene::Scene;
@@ -23,6 +26,17 @@ pub const EKF_COLOUR: &str = "#d62728";
 pub const VSLAM_COLOUR: &str = "#1f77b4";
 /// Colour of wheel odometry alone.
 pub const WHEEL_COLOUR: &str = "#ff7f0e";
+
+/// Line widths, px: the truth widest and under everything, then each
+/// estimate narrower than the one drawn before it (wheels, camera, EKF), so
+/// where they coincide every one still shows along the edges of the next.
+pub const TRUTH_WIDTH: f64 = 8.0;
+/// Width of the wheel-only line, px.
+pub const WHEEL_WIDTH: f64 = 2.0;
+/// Width of the camera path's line, px.
+pub const VSLAM_WIDTH: f64 = 4.0;
+/// Width of the EKF's line, px.
+pub const EKF_WIDTH: f64 = 1.6;
 
 /// Everything the plots and the page draw.
 #[derive(Clone, Copy)]
