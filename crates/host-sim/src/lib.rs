@@ -39,6 +39,7 @@ pub mod matches;
 pub mod metrics;
 pub mod plot;
 pub mod pngio;
+pub mod progress;
 pub mod replay;
 pub mod sim;
 pub mod simulate;

@@ -11,6 +11,7 @@ use crate::error::CliError;
 use crate::faults::report::{FaultLog, FaultOutcome, Injected, faults_section, outcomes};
 use crate::faults::{FaultPlan, Stage, Stream, inject};
 use crate::plot::Scene;
+use crate::progress::Progress;
 use crate::replay::{Feed, ReplayOptions, ReplayOutput, replay_feed, run_replay, write_outputs};
 use crate::sim::scenario::{SCENARIOS, Scenario, generate_with};
 use std::collections::HashMap;
@@ -45,7 +46,13 @@ pub fn run_simulate(
     let scenario = scenario(name)?;
     let dataset = out.join("dataset");
     clear(&dataset)?;
-    let (ds, _truth, _) = generate_with(&scenario, seed, &dataset, &FaultPlan::none())?;
+    let (ds, _truth, _) = generate_with(
+        &scenario,
+        seed,
+        &dataset,
+        &FaultPlan::none(),
+        &Progress::new(progress),
+    )?;
     write_dataset(&dataset, &ds)?;
     Scene::of(&scenario).write(&dataset)?;
     run_replay(&dataset, out, progress)
@@ -90,7 +97,8 @@ pub fn simulate_faults(
     let dataset = out.join("dataset");
     clear(&dataset)?;
     let sc = crate::faults::scenario::apply(plan, sc);
-    let (mut ds, _truth, generated) = generate_with(&sc, seed, &dataset, plan)?;
+    let (mut ds, _truth, generated) =
+        generate_with(&sc, seed, &dataset, plan, &Progress::new(progress))?;
     let mut log = FaultLog {
         plan: plan.clone(),
         injected: generated.injected,

@@ -10,6 +10,7 @@ use crate::error::CliError;
 use crate::faults::{FailedRead, Stream};
 use crate::metrics::trajectory_error;
 use crate::pngio::load_gray;
+use crate::progress::Progress;
 use crate::tum::TumPose;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -145,19 +146,6 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
     }
     items.sort_by_key(|(t, k, _)| (*t, *k));
     items
-}
-
-fn progress_bar(progress: bool, len: usize) -> Option<indicatif::ProgressBar> {
-    progress.then(|| {
-        let b = indicatif::ProgressBar::new(len as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "replay {bar:40} {percent:>3}% {pos}/{len} samples, eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    })
 }
 
 /// What the run collects from the estimator's answers.
@@ -352,24 +340,21 @@ pub(super) fn run(
     );
 
     let items = schedule(ds, feed);
-    let bar = progress_bar(progress, items.len());
+    let bar = Progress::new(progress).bar("replay", items.len() as u64, "samples");
     let mut c = Collected {
         check_health: feed.is_some(),
         ..Collected::default()
     };
     for (i, (t, _, next)) in items.iter().enumerate() {
         c.step(&mut est, ds, feed, *t, next)?;
-        if let Some(b) = &bar
-            && i % 256 == 0
-        {
-            b.set_position(i as u64);
+        if i % 256 == 0 {
+            bar.set_position(i as u64);
         }
     }
     est.finish();
     c.drain(&mut est);
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    bar.set_position(items.len() as u64);
+    bar.finish_and_clear();
 
     let wheels = ds.wheel.as_ref().map(|(_, v)| v.as_slice()).unwrap_or(&[]);
     let wheel_only = wheel_only(&config.odometry, wheels);

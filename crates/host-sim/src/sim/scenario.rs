@@ -14,6 +14,7 @@ use crate::faults::image::{spoil_frame, spoil_labels};
 use crate::faults::report::Injected;
 use crate::faults::{Expected, FailedRead, FaultKind, FaultPlan, FaultSpec, Stage, Stream};
 use crate::pngio::save_gray;
+use crate::progress::Progress;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -133,12 +134,14 @@ fn groundtruth(truth: &[TruthStep], biases: &[[[f64; 3]; 2]], every: usize) -> V
 
 /// Simulates `sc` with `seed`, writing images under `root/mav0/{cam0,seg0}/data/`;
 /// returns the dataset (also to be written with `asl::write_dataset`) and the truth.
+/// Shows no progress.
 pub fn generate(
     sc: &Scenario,
     seed: u64,
     root: &Path,
 ) -> Result<(Dataset, Vec<TruthStep>), CliError> {
-    generate_with(sc, seed, root, &FaultPlan::none()).map(|(ds, truth, _)| (ds, truth))
+    generate_with(sc, seed, root, &FaultPlan::none(), &Progress::hidden())
+        .map(|(ds, truth, _)| (ds, truth))
 }
 
 /// What the chip and image faults of a generation spoiled.
@@ -153,19 +156,29 @@ pub struct GeneratedFaults {
 /// [`generate`] with the chip faults of `plan` injected into the chip
 /// simulators and its vision faults into the rendered images (motion faults
 /// are applied to the scenario beforehand: `faults::scenario::apply`).
+/// `progress` gets a `simulating` bar over the sensor streams (truth, IMU,
+/// wheels, flow) and a `rendering` bar over the camera and segmentation
+/// images.
 pub fn generate_with(
     sc: &Scenario,
     seed: u64,
     root: &Path,
     plan: &FaultPlan,
+    progress: &Progress,
 ) -> Result<(Dataset, Vec<TruthStep>, GeneratedFaults), CliError> {
+    let sensors = progress.bar("simulating", 4, "streams");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let truth = integrate(&sc.world, &sc.script, &sc.robot);
+    sensors.inc(1);
     let (imu_samples, biases) = imu(&truth, &sc.imu, &mut rng);
+    sensors.inc(1);
     // Encoders and the flow sensor are read through the real drivers from
     // register-level chip simulators.
     let wheel_reads = wheels_through_driver_with(&wheel_angles(&truth, sc.wheel_rate_hz), plan)?;
+    sensors.inc(1);
     let flow_reads = flow_through_driver_with(&flow(&truth, &sc.flow, &mut rng), plan)?;
+    sensors.inc(1);
+    sensors.finish_and_clear();
     let mut faults = GeneratedFaults::default();
     for (stream, spoiled) in [
         (Stream::Wheel, &wheel_reads.spoiled),
@@ -210,6 +223,9 @@ pub fn generate_with(
     let mut frames = Vec::new();
     let mut labels = Vec::new();
     let every = |hz: f64| ((1e9 / hz) as u64 / super::motion::TRUTH_STEP_NS).max(1) as usize;
+    let images = truth.len().div_ceil(every(sc.camera.rate_hz))
+        + truth.len().div_ceil(every(sc.segmentation.rate_hz));
+    let rendering = progress.bar("rendering", images as u64, "images");
     for s in truth.iter().step_by(every(sc.camera.rate_hz)) {
         let path = cam_dir.join(format!("{}.png", s.t_ns));
         let mut img = render_ceiling(&sc.world, &sc.camera, &tex, s);
@@ -246,6 +262,7 @@ pub fn generate_with(
             None => (None, 0),
         };
         save_gray(&path, &img)?;
+        rendering.inc(1);
         previous_frame = Some(img);
         frames.push(ImageEntry {
             t: Timestamp(s.t_ns),
@@ -266,11 +283,13 @@ pub fn generate_with(
             });
         }
         save_gray(&path, &img)?;
+        rendering.inc(1);
         labels.push(ImageEntry {
             t: Timestamp(s.t_ns),
             path,
         });
     }
+    rendering.finish_and_clear();
 
     let identity = [
         1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
@@ -366,6 +385,43 @@ mod tests {
         // Same seed, same data.
         let (again, _) = generate(&sc, 7, &dir).unwrap();
         assert!(again.imu == ds.imu, "same seed gave different IMU data");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn generation_counts_streams_and_images_on_its_bars() {
+        let dir = std::env::temp_dir().join(format!("host-sim-progress-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut sc = Scenario::by_name("short").unwrap();
+        sc.script.duration = 2.0;
+        let progress = Progress::hidden();
+        let (ds, _, _) = generate_with(&sc, 7, &dir, &FaultPlan::none(), &progress).unwrap();
+        let images =
+            ds.cam.as_ref().map_or(0, |x| x.1.len()) + ds.seg.as_ref().map_or(0, |x| x.1.len());
+        assert_eq!(images, 26);
+        let bars: Vec<_> = progress
+            .bars()
+            .iter()
+            .map(|b| (b.prefix(), b.message(), b.position(), b.length()))
+            .collect();
+        assert_eq!(
+            bars,
+            [
+                ("simulating".into(), "streams".into(), 4, Some(4)),
+                (
+                    "rendering".into(),
+                    "images".into(),
+                    images as u64,
+                    Some(images as u64)
+                ),
+            ]
+        );
+        assert!(
+            progress
+                .bars()
+                .iter()
+                .all(|b| b.is_hidden() && b.is_finished())
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
