@@ -6,7 +6,9 @@
 
 pub mod errors;
 pub mod html;
+pub mod scale_chart;
 pub mod scene;
+pub mod tables;
 pub mod trajectory;
 
 pub use scene::Scene;
