@@ -57,6 +57,10 @@ pub fn time_span(inputs: &PlotInputs<'_>) -> Option<(u64, u64)> {
     })
 }
 
+/// Colour of the frame around each plot; used nowhere else on the page, so
+/// the browser test finds the plots in a screenshot by it.
+pub const FIGURE_FRAME: &str = "#b4c8dc";
+
 const STYLE: &str = "
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1100px; padding: 0 1em; color: #222; background: #fff; }
 h1 { font-size: 1.5em; margin-bottom: 0.2em; }
@@ -64,7 +68,7 @@ h2 { font-size: 1.2em; margin-top: 1.8em; border-bottom: 1px solid #ccc; padding
 p.meta { color: #444; margin-top: 0; }
 p.note { color: #555; font-style: italic; }
 figure { margin: 1em 0; }
-figure svg { max-width: 100%; height: auto; display: block; border: 1px solid #ddd; }
+figure svg { max-width: 100%; height: auto; display: block; border: 1px solid FRAME; }
 figcaption { color: #555; font-size: 0.9em; margin-top: 0.3em; }
 table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.92em; }
 caption { text-align: left; font-weight: bold; padding-bottom: 0.3em; }
@@ -146,8 +150,9 @@ pub fn report_html(
     };
     let _ = writeln!(
         s,
-        "<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>",
-        escape(&title)
+        "<title>{}</title>\n<style>{}</style>\n</head>\n<body>",
+        escape(&title),
+        STYLE.replace("FRAME", FIGURE_FRAME)
     );
     header(&mut s, inputs, span);
 
@@ -210,4 +215,111 @@ pub fn report_html(
     }
     s.push_str("</body>\n</html>\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tum::TumPose;
+    use serde_json::json;
+    use traction::vslam_core::Timestamp;
+
+    fn pose(t_s: f64) -> TumPose {
+        TumPose {
+            t: Timestamp((t_s * 1e9) as u64),
+            p: [t_s, 0.0, 0.0],
+            q_xyzw: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+
+    const SVG_A: &str = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!-- plot -->\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"10\" height=\"10\"><circle cx=\"5\" cy=\"5\" r=\"2\"/></svg>\n";
+    const SVG_B: &str = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"10\" height=\"10\"><rect width=\"10\" height=\"10\"/></svg>";
+
+    fn page(report: &Value, scene: Option<&super::super::Scene>) -> String {
+        let poses = [pose(1.0), pose(3.5)];
+        let inputs = PlotInputs {
+            ekf: &poses,
+            vslam: &[],
+            wheel_only: &[],
+            truth: None,
+            scene,
+            report,
+        };
+        report_html(&inputs, SVG_A, SVG_B, "trajectory <ekf> & co")
+    }
+
+    #[test]
+    fn escape_replaces_the_five_special_characters() {
+        assert_eq!(
+            escape(r#"<a href="x">Tom & Jerry's</a>"#),
+            "&lt;a href=&quot;x&quot;&gt;Tom &amp; Jerry&#39;s&lt;/a&gt;"
+        );
+        assert_eq!(escape("plain text, 2.5 m"), "plain text, 2.5 m");
+        assert_eq!(escape("&amp;"), "&amp;amp;");
+    }
+
+    #[test]
+    fn inline_svg_drops_the_prolog() {
+        let s = inline_svg(SVG_A).unwrap();
+        assert!(s.starts_with("<svg xmlns="), "{s}");
+        assert!(s.ends_with("</svg>"), "{s}");
+        assert_eq!(inline_svg(SVG_B), Some(SVG_B));
+        assert_eq!(inline_svg("not a plot"), None);
+    }
+
+    #[test]
+    fn page_of_a_recorded_log_without_truth() {
+        let report = json!({
+            "counts": {"imu": {"seen": 10, "fused": 9, "gated": 0, "rejected": {"not_ready": 1}}},
+            "events": [{"t": 2_000_000_000u64, "kind": "<b>Strip</b>", "magnitude": 1.5,
+                        "explained": null, "surface": "wood"}],
+            "frames": [],
+        });
+        let html = page(&report, None);
+        assert!(html.starts_with("<!DOCTYPE html>\n<html lang=\"en\">"));
+        assert!(html.contains("recorded log; duration 2.5 s"), "{html}");
+        assert!(html.contains("no ground truth in this log"));
+        // Both plots inlined once, without their prolog; the scale chart too.
+        assert!(!html.contains("<?xml"));
+        assert!(!html.contains("<!-- plot -->"));
+        assert_eq!(html.matches("<svg xmlns=").count(), 3);
+        assert_eq!(html.matches("<figure class=\"plot\">").count(), 3);
+        // Every text escaped: the event kind and the printed summary.
+        assert!(html.contains("&lt;b&gt;Strip&lt;/b&gt;"));
+        assert!(!html.contains("<b>"));
+        assert!(html.contains("trajectory &lt;ekf&gt; &amp; co"));
+        // The event at 2 s after the first pose at 1 s.
+        assert!(html.contains("<td class=\"n\">1.000</td><td>&lt;b&gt;Strip"));
+        // No faults section without faults; no scripts, no loads.
+        assert!(!html.contains("id=\"faults\""));
+        assert!(!html.contains("<script"));
+        assert!(html.contains("default-src 'none'"));
+        for tag in ["table", "section", "figure", "svg", "tr", "td", "p"] {
+            let open = html.matches(&format!("<{tag}>")).count()
+                + html.matches(&format!("<{tag} ")).count();
+            let close = html.matches(&format!("</{tag}>")).count();
+            assert_eq!(open, close, "<{tag}> opened {open} times, closed {close}");
+        }
+    }
+
+    #[test]
+    fn page_of_a_simulation_with_truth_and_faults() {
+        let scene = super::super::Scene {
+            scenario: "office".into(),
+            ..Default::default()
+        };
+        let report = json!({
+            "errors": {"ekf": {"ate_rmse_m": 0.1234, "final_error_m": 0.2,
+                               "final_error_pct_of_path": 1.5, "path_length_m": 10.0}},
+            "faults": {"plan": "imu-nan@2x3", "faults": [{"fault": "imu-nan@2x3",
+                "injected": 3, "as_expected": 3, "observed": {"non_finite": 3}}]},
+        });
+        let html = page(&report, Some(&scene));
+        assert!(html.contains("<title>traction report: office</title>"));
+        assert!(html.contains("simulated scenario \u{201c}office\u{201d}"));
+        assert!(html.contains("<td class=\"n\">0.123</td>"));
+        assert!(!html.contains("no ground truth"));
+        assert!(html.contains("id=\"faults\""));
+        assert!(html.contains("<td>imu-nan@2x3</td>"));
+    }
 }

@@ -326,3 +326,97 @@ pub fn scale_chart_svg(frames: &[Value], t0_ns: u64) -> String {
     s.push_str("</svg>\n");
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn frame(t_s: f64, source: Option<&str>, scale: Value, applied: Value, slip: bool) -> Value {
+        json!({
+            "t": (t_s * 1e9) as u64, "source": source, "scale": scale,
+            "applied_scale": applied, "slip_exceeded": slip,
+            "no_scale": if source.is_none() { json!("BaselineTooSmall") } else { Value::Null },
+        })
+    }
+
+    #[test]
+    fn ticks_are_round_and_cover_the_range() {
+        let (t, step) = ticks(0.0, 12.0, 10);
+        assert_eq!(step, 2.0);
+        assert_eq!(t, vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0]);
+        let (t, step) = ticks(2.18, 2.62, 5);
+        assert!((step - 0.1).abs() < 1e-12);
+        assert_eq!(t.len(), 5, "{t:?}");
+        assert!((t[0] - 2.2).abs() < 1e-9 && (t[4] - 2.6).abs() < 1e-9);
+        assert_eq!(decimals(step), 1);
+        assert_eq!(decimals(2.0), 0);
+        assert_eq!(decimals(0.05), 2);
+        assert_eq!(ticks(3.0, 3.0, 5).0, vec![3.0]);
+    }
+
+    #[test]
+    fn a_decision_without_scale_is_a_mark_in_the_no_scale_band() {
+        let frames = [
+            frame(1.0, None, Value::Null, Value::Null, false),
+            frame(2.0, Some("fused"), json!(2.4), json!(2.4), true),
+        ];
+        let svg = scale_chart_svg(&frames, 0);
+        // One point: the fused decision; the other is a no-scale mark with its reason.
+        assert_eq!(
+            svg.matches(&format!(
+                "fill=\"{}\"><title>",
+                source_colour(Some("fused"))
+            ))
+            .count(),
+            1
+        );
+        assert!(svg.contains("1.00 s: no scale (BaselineTooSmall)"), "{svg}");
+        assert!(svg.contains(&format!("y1=\"{:.1}\"", NONE_Y - 6.0)));
+        assert_eq!(svg.matches("slip exceeded</title>").count(), 1);
+        // The legend names the sources present only.
+        assert!(svg.contains(">fused</text>") && !svg.contains(">wheel</text>"));
+        assert!(svg.starts_with("<svg xmlns=") && svg.ends_with("</svg>\n"));
+    }
+
+    #[test]
+    fn missing_and_non_finite_values_never_become_nan() {
+        // serde_json keeps no NaN or infinity: they arrive as null.
+        let frames = [
+            frame(
+                0.5,
+                Some("wheel"),
+                json!(f64::NAN),
+                json!(f64::INFINITY),
+                false,
+            ),
+            frame(1.0, Some("flow"), json!("2.3"), Value::Null, false),
+            json!({"t": null, "source": "fused", "scale": 2.0}),
+            frame(1.5, None, Value::Null, Value::Null, false),
+        ];
+        for f in [&frames[..], &frames[..1], &frames[3..], &[]] {
+            let svg = scale_chart_svg(f, 0);
+            for bad in ["NaN", "inf", "null"] {
+                assert!(!svg.contains(bad), "{bad} in\n{svg}");
+            }
+        }
+        // Nothing finite to plot: no point, no line, the axis still drawn.
+        let svg = scale_chart_svg(&frames, 0);
+        assert!(!svg.contains("<polyline") && !svg.contains("r=\"2.6\""));
+        assert!(svg.contains("time [s]"));
+        assert!(scale_chart_svg(&[], 0).contains("no camera frame pairs"));
+    }
+
+    #[test]
+    fn the_applied_scale_line_breaks_where_there_is_none() {
+        let frames = [
+            frame(1.0, Some("fused"), json!(2.4), json!(2.4), false),
+            frame(2.0, Some("fused"), json!(2.5), json!(2.45), false),
+            frame(3.0, None, Value::Null, Value::Null, false),
+            frame(4.0, Some("flow"), json!(2.3), json!(2.35), false),
+            frame(5.0, Some("flow"), json!(2.3), json!(2.33), false),
+        ];
+        let svg = scale_chart_svg(&frames, 0);
+        assert_eq!(svg.matches("<polyline").count(), 2);
+    }
+}

@@ -500,3 +500,123 @@ pub fn final_table(fin: &Value) -> String {
         .collect();
     table("the filter at the end of the run", &["", "value"], &rows)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn errors_table_has_one_row_per_trajectory_and_dashes_for_missing_numbers() {
+        let t = errors_table(&json!({
+            "ekf": {"ate_rmse_m": 0.16158, "final_error_m": 0.1247,
+                    "final_error_pct_of_path": 0.787, "path_length_m": 15.847},
+            "wheel_only": {"ate_rmse_m": null, "final_error_m": 3.6466,
+                           "final_error_pct_of_path": 23.0, "path_length_m": 15.847},
+        }));
+        assert_eq!(t.matches("<tr>").count(), 3);
+        assert!(t.contains("ekf</td><td class=\"n\">0.162</td><td class=\"n\">0.125</td><td class=\"n\">0.79</td><td class=\"n\">15.85</td>"), "{t}");
+        assert!(t.contains(&format!("wheel_only</td><td class=\"n\">{DASH}</td>")));
+        assert!(t.contains(super::super::EKF_COLOUR));
+        assert_eq!(
+            errors_table(&Value::Null),
+            "<p class=\"note\">no ground truth in this log</p>\n"
+        );
+        assert_eq!(errors_table(&json!({})), errors_table(&Value::Null));
+    }
+
+    #[test]
+    fn counts_table_has_a_column_per_rejection_reason() {
+        let t = counts_table(
+            "samples",
+            "stream",
+            &json!({
+                "flow": {"seen": 6000, "fused": 5764, "gated": 216,
+                         "rejected": {"gated": 216, "not_ready": 20}},
+                "imu": {"seen": 15001, "fused": 14951, "gated": 0,
+                        "rejected": {"non_finite": 3}},
+                "flow_frame": {"seen": 0, "fused": 0, "gated": 0, "rejected": {}},
+            }),
+        );
+        assert!(
+            t.contains(
+                "<th>rejected: gated</th><th>rejected: non_finite</th><th>rejected: not_ready</th>"
+            ),
+            "{t}"
+        );
+        let n = |v: u64| format!("<td class=\"n\">{v}</td>");
+        let flow = ["6000", "5764", "216", "216", "0", "20"].map(|v| n(v.parse().unwrap()));
+        assert!(
+            t.contains(&format!("<td>flow</td>{}", flow.concat())),
+            "{t}"
+        );
+        let imu = ["15001", "14951", "0", "0", "3", "0"].map(|v| n(v.parse().unwrap()));
+        assert!(t.contains(&format!("<td>imu</td>{}", imu.concat())), "{t}");
+        assert!(!t.contains("<td>flow_frame</td>"));
+        assert!(t.contains("not in this log: flow_frame"));
+    }
+
+    #[test]
+    fn decisions_table_groups_by_source_with_no_scale_last() {
+        let f = |src: Option<&str>, scale: f64, slip: bool| {
+            json!({"source": src, "scale": if src.is_some() { json!(scale) } else { Value::Null },
+                   "slip_exceeded": slip,
+                   "no_scale": if src.is_none() { json!("CameraUnreliable") } else { Value::Null }})
+        };
+        let frames = [
+            f(None, 0.0, true),
+            f(Some("fused"), 2.4, false),
+            f(Some("wheel"), 2.0, true),
+            f(Some("fused"), 2.6, false),
+            f(Some("fused"), 2.5, false),
+        ];
+        let t = decisions_table(&frames);
+        let wheel = t.find("wheel</td>").unwrap();
+        let fused = t.find("fused</td>").unwrap();
+        let none = t.find("no scale</td>").unwrap();
+        assert!(wheel < fused && fused < none, "{t}");
+        assert!(t.contains("fused</td><td class=\"n\">3</td><td class=\"n\">60.0</td><td class=\"n\">0</td><td class=\"n\">2.500</td><td></td>"), "{t}");
+        assert!(t.contains(&format!("no scale</td><td class=\"n\">1</td><td class=\"n\">20.0</td><td class=\"n\">1</td><td class=\"n\">{DASH}</td><td>CameraUnreliable 1</td>")), "{t}");
+        assert!(t.contains("over 5 frame pairs"));
+        assert!(decisions_table(&[]).contains("no camera frame pairs"));
+    }
+
+    #[test]
+    fn events_and_surfaces_count_time_from_the_start() {
+        let t = events_table(
+            &json!([{"t": 3_500_000_000u64, "kind": "ThresholdStrip", "magnitude": 6.45,
+                     "explained": 2.0, "surface": null}]),
+            1_000_000_000,
+        );
+        assert!(t.contains(&format!("<td class=\"n\">2.500</td><td>ThresholdStrip</td><td class=\"n\">6.45</td><td class=\"n\">2.00</td><td>{DASH}</td>")), "{t}");
+        assert!(events_table(&json!([]), 0).contains("no events"));
+        let s = surface_table(
+            &json!([
+                {"t": 0, "surface": "wood", "outcome": "used", "grip": 0.9},
+                {"t": 500_000_000u64, "surface": "wood", "outcome": "used", "grip": 1.0},
+                {"t": 1_000_000_000u64, "surface": "carpet", "outcome": "used", "grip": 0.7},
+            ]),
+            0,
+        );
+        assert_eq!(s.matches("<tr>").count(), 3, "{s}");
+        assert!(s.contains("<td class=\"n\">0.000</td><td class=\"n\">0.500</td><td>wood</td><td>used</td><td class=\"n\">2</td><td class=\"n\">0.95</td>"), "{s}");
+    }
+
+    #[test]
+    fn faults_table_marks_faults_not_met() {
+        let t = faults_table(&json!({
+            "plan": "imu-nan@2x3,wheel-stuck@4",
+            "faults": [
+                {"fault": "imu-nan@2x3", "injected": 3, "as_expected": 3, "observed": {"non_finite": 3}},
+                {"fault": "wheel-stuck@4", "injected": 5, "as_expected": 4,
+                 "observed": {"fused": 4, "missing": 1}},
+            ],
+            "health": {"imu_steps_checked": 100, "non_finite_steps": 0, "not_spd_steps": 0},
+        }));
+        assert_eq!(t.matches("<tr class=\"bad\">").count(), 1);
+        assert!(t.contains("<tr class=\"bad\"><td>wheel-stuck@4</td>"));
+        assert!(t.contains("<td>fused 4, missing 1</td>"));
+        assert!(t.contains("plan: imu-nan@2x3,wheel-stuck@4"));
+        assert!(t.contains("IMU steps checked 100"));
+    }
+}
