@@ -161,16 +161,19 @@ pub fn report_html(
     s.push_str("</section>\n");
 
     s.push_str("<section id=\"plots\">\n<h2>Trajectories and errors</h2>\n");
-    figure(
-        &mut s,
-        trajectory_svg,
-        "top view: the truth, the EKF, the camera path and wheel odometry alone",
-    );
-    figure(
-        &mut s,
-        errors_svg,
-        "position error over time against the truth",
-    );
+    let (top_view, errors) = if inputs.truth.is_some() {
+        (
+            "top view: the truth, the EKF, the camera path and wheel odometry alone",
+            "error over time against the truth",
+        )
+    } else {
+        (
+            "top view: the EKF, the camera path and wheel odometry alone",
+            "error over time: needs the ground truth, which this log does not have",
+        )
+    };
+    figure(&mut s, trajectory_svg, top_view);
+    figure(&mut s, errors_svg, errors);
     s.push_str("</section>\n");
 
     let frames = r["frames"].as_array().map(Vec::as_slice).unwrap_or(&[]);
@@ -279,6 +282,7 @@ mod tests {
         assert!(html.starts_with("<!DOCTYPE html>\n<html lang=\"en\">"));
         assert!(html.contains("recorded log; duration 2.5 s"), "{html}");
         assert!(html.contains("no ground truth in this log"));
+        assert!(html.contains("which this log does not have</figcaption>"));
         // Both plots inlined once, without their prolog; the scale chart too.
         assert!(!html.contains("<?xml"));
         assert!(!html.contains("<!-- plot -->"));
