@@ -8,7 +8,9 @@ pub mod axes;
 pub mod errors;
 pub mod html;
 pub mod markers;
+pub mod scale_chart;
 pub mod scene;
+pub mod tables;
 pub mod track;
 pub mod trajectory;
 
