@@ -224,6 +224,7 @@ pub fn simulate_faults(
     let h = output.health;
     output.report["faults"]["health"] = serde_json::json!({
         "imu_steps_checked": h.steps, "non_finite_steps": h.non_finite, "not_spd_steps": h.not_spd,
+        "counts_unbalanced_steps": h.counts_unbalanced, "counts_backwards_steps": h.counts_backwards,
     });
     let truth = ds.groundtruth.clone().unwrap_or_default();
     write_outputs(out, &output, Some(&truth), Some(&scene))?;

@@ -45,7 +45,10 @@ pub struct ReplayOutput {
 /// The filter's health, checked after every processed IMU sample once the
 /// filter runs: every nominal state value finite, the covariance finite,
 /// symmetric and positive definite (Cholesky of the correlation matrix,
-/// `ego_ekf::covariance::is_positive_definite`).
+/// `ego_ekf::covariance::is_positive_definite`); and the estimator's counts
+/// after every IMU sample: per stream, as many samples seen as the replay
+/// has logged outcomes for (every sample in exactly one count), and no
+/// count smaller than at the step before.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Health {
     /// Steps checked.
@@ -54,6 +57,10 @@ pub struct Health {
     pub non_finite: u32,
     /// Steps whose covariance was not symmetric positive definite.
     pub not_spd: u32,
+    /// Steps at which a stream's `seen` differed from the outcomes logged.
+    pub counts_unbalanced: u32,
+    /// Steps at which a count was smaller than at the step before.
+    pub counts_backwards: u32,
 }
 
 impl Health {
@@ -88,9 +95,35 @@ impl Health {
         }
     }
 
+    /// Checks the estimator's counts `now` against the outcomes logged per
+    /// stream (`logged`) and against the counts of the step before (`last`).
+    fn check_counts(
+        &mut self,
+        now: &traction::vslam_core::StreamCounts,
+        last: &traction::vslam_core::StreamCounts,
+        logged: &traction::vslam_core::PerStream<u32>,
+    ) {
+        if now.iter().any(|(s, c)| c.seen() != logged[s]) {
+            self.counts_unbalanced += 1;
+        }
+        let backwards = now.iter().any(|(s, c)| {
+            let l = &last[s];
+            c.fused() < l.fused()
+                || c.by_reason()
+                    .zip(l.by_reason())
+                    .any(|((_, a), (_, b))| a < b)
+        });
+        if backwards {
+            self.counts_backwards += 1;
+        }
+    }
+
     /// Whether every checked step was healthy.
     pub fn ok(&self) -> bool {
-        self.non_finite == 0 && self.not_spd == 0
+        self.non_finite == 0
+            && self.not_spd == 0
+            && self.counts_unbalanced == 0
+            && self.counts_backwards == 0
     }
 }
 
@@ -180,4 +213,30 @@ pub fn run_replay_with(
 /// Rejection reason names, for reports and tests.
 pub fn reason_names() -> Vec<&'static str> {
     Reject::ALL.iter().map(|r| r.name()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use traction::vslam_core::{PerStream, StreamCounts};
+
+    #[test]
+    fn counts_must_match_the_outcomes_logged_and_never_shrink() {
+        let mut h = Health::default();
+        let mut now = StreamCounts::default();
+        now[Stream::Wheel].record(Ok(()));
+        now[Stream::Wheel].record(Err(Reject::Gated));
+        let mut logged = PerStream::<u32>::default();
+        logged[Stream::Wheel] = 2;
+        let before = StreamCounts::default();
+        h.check_counts(&now, &before, &logged);
+        assert!(h.ok(), "{h:?}");
+        logged[Stream::Wheel] = 3;
+        h.check_counts(&now, &before, &logged);
+        assert_eq!(h.counts_unbalanced, 1, "a sample logged but not counted");
+        logged[Stream::Wheel] = 2;
+        h.check_counts(&before, &now, &PerStream::default());
+        assert_eq!(h.counts_backwards, 1, "the counts went down");
+        assert!(!h.ok());
+    }
 }

@@ -21,7 +21,7 @@ use traction::reorder::Event;
 use traction::vslam_core::geometry::{Quat, Vec3};
 use traction::vslam_core::image::LabelView;
 use traction::vslam_core::sensors::WheelTicks;
-use traction::vslam_core::{Reject, Timestamp};
+use traction::vslam_core::{PerStream, Reject, StreamCounts, Timestamp};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 pub(super) fn outcome_name<T>(r: &Result<T, Reject>) -> &'static str {
@@ -172,14 +172,23 @@ pub(super) struct Collected {
     /// The filter's health, checked when `check_health`.
     pub health: Health,
     check_health: bool,
+    /// Outcomes logged per stream (a first camera frame is no pair and not
+    /// counted by the estimator, nor here).
+    logged: PerStream<u32>,
+    /// The estimator's counts at the last health check.
+    last_counts: StreamCounts,
 }
 
 impl Collected {
     /// One sample the estimator processed.
     fn handle(&mut self, p: Processed, est: &Estimator<'_>) {
-        self.outcomes.push(processed_outcome(&p));
+        self.log(processed_outcome(&p));
         if self.check_health && matches!(p, Processed::Imu { .. }) {
             self.health.check(est.ekf());
+            let now = est.counts();
+            self.health
+                .check_counts(&now, &self.last_counts, &self.logged);
+            self.last_counts = now;
         }
         if let Processed::Imu { jolt: Some(e), .. } = p {
             self.jolts.push(e);
@@ -192,6 +201,14 @@ impl Collected {
             self.ekf
                 .push(pose(t, est.ekf().position(), &est.ekf().attitude()));
         }
+    }
+
+    /// One outcome, in processing order.
+    fn log(&mut self, o: (Stream, Timestamp, &'static str)) {
+        if o.2 != "first" {
+            self.logged[o.0] += 1;
+        }
+        self.outcomes.push(o);
     }
 
     /// Everything the estimator has ready.
@@ -211,7 +228,7 @@ impl Collected {
     /// A read that produced no sample.
     fn failed(&mut self, est: &mut Estimator<'_>, f: &FailedRead) {
         est.reject_read(f.stream, f.reason);
-        self.outcomes.push((f.stream, f.t, f.reason.name()));
+        self.log((f.stream, f.t, f.reason.name()));
     }
 
     /// Camera frame `k` of the dataset.
@@ -235,7 +252,7 @@ impl Collected {
             .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
         let outcome = est.process_camera(t, &view);
         self.camera_frames += 1;
-        self.outcomes.push((
+        self.log((
             Stream::Camera,
             t,
             match &outcome {
@@ -277,8 +294,7 @@ impl Collected {
         let labels = LabelView::new(&img.data, img.width, img.height, img.width)
             .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
         let outcome = est.process_segmentation(t, &labels);
-        self.outcomes
-            .push((Stream::Segmentation, t, outcome_name(&outcome)));
+        self.log((Stream::Segmentation, t, outcome_name(&outcome)));
         let state = est.surface().map(|s| s.state_at(t));
         let grip = est.surface().map(|s| s.grip_params(t));
         self.surfaces.push(json!({

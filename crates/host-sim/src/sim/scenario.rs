@@ -42,10 +42,18 @@ pub struct Scenario {
     pub segmentation: Camera,
     /// Wheel encoder rate, Hz.
     pub wheel_rate_hz: f64,
+    /// Stuck and lifted faults pause the drive where they start and it goes
+    /// on afterwards ([`Script::with_pause`]), instead of cutting the
+    /// distance they last out of the path: the long shuttle drive keeps to
+    /// its rooms however many faults it meets.
+    pub pauses_keep_path: bool,
 }
 
 /// Names of the scenarios `simulate --scenario` knows.
-pub const SCENARIOS: [&str; 4] = ["office", "slip", "short", "straight"];
+pub const SCENARIOS: [&str; 5] = ["office", "slip", "short", "straight", "shuttle"];
+
+/// Duration of the `shuttle` scenario unless `--duration` says otherwise, s.
+pub const SHUTTLE_DEFAULT_S: f64 = 300.0;
 
 impl Scenario {
     /// The scenario called `name`.
@@ -60,6 +68,7 @@ impl Scenario {
             camera: Camera::ceiling(),
             segmentation: Camera::forward_segmentation(),
             wheel_rate_hz: 50.0,
+            pauses_keep_path: false,
         };
         match name {
             "office" => Some(base),
@@ -107,8 +116,28 @@ impl Scenario {
                 s.script = Script::straight();
                 Some(s)
             }
+            // The long drive: the office's first leg out and back again and
+            // again, laps taking turns as office, slip and straight laps.
+            "shuttle" => {
+                let mut s = base;
+                s.name = "shuttle";
+                s.script = Script::shuttle(SHUTTLE_DEFAULT_S);
+                s.pauses_keep_path = true;
+                Some(s)
+            }
             _ => None,
         }
+    }
+
+    /// The scenario run for `seconds`: the shuttle drives as many laps as
+    /// fit, any other scenario is cut or padded with standing still.
+    pub fn with_duration(mut self, seconds: f64) -> Self {
+        if self.name == "shuttle" {
+            self.script = Script::shuttle(seconds);
+        } else {
+            self.script.duration = seconds;
+        }
+        self
     }
 }
 
