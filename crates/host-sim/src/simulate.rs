@@ -36,6 +36,19 @@ fn clear(dataset: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The scenario called `name`, run for `duration` seconds when given
+/// ([`Scenario::with_duration`]).
+pub fn scenario_for(name: &str, duration: Option<f64>) -> Result<Scenario, CliError> {
+    let sc = scenario(name)?;
+    match duration {
+        None => Ok(sc),
+        Some(d) if d.is_finite() && d > 0.0 && d <= 86_400.0 => Ok(sc.with_duration(d)),
+        Some(d) => Err(CliError::Usage(format!(
+            "duration {d} s: expected a number of seconds in (0, 86400]"
+        ))),
+    }
+}
+
 /// Runs scenario `name` with `seed` into `out`.
 pub fn run_simulate(
     name: &str,
@@ -43,18 +56,27 @@ pub fn run_simulate(
     out: &Path,
     progress: bool,
 ) -> Result<ReplayOutput, CliError> {
-    let scenario = scenario(name)?;
+    simulate_scenario(&scenario(name)?, seed, out, progress)
+}
+
+/// Runs scenario `sc` with `seed` into `out`.
+pub fn simulate_scenario(
+    scenario: &Scenario,
+    seed: u64,
+    out: &Path,
+    progress: bool,
+) -> Result<ReplayOutput, CliError> {
     let dataset = out.join("dataset");
     clear(&dataset)?;
     let (ds, _truth, _) = generate_with(
-        &scenario,
+        scenario,
         seed,
         &dataset,
         &FaultPlan::none(),
         &Progress::new(progress),
     )?;
     write_dataset(&dataset, &ds)?;
-    Scene::of(&scenario).write(&dataset)?;
+    Scene::of(scenario).write(&dataset)?;
     run_replay(&dataset, out, progress)
 }
 
@@ -225,6 +247,7 @@ pub fn simulate_faults(
     output.report["faults"]["health"] = serde_json::json!({
         "imu_steps_checked": h.steps, "non_finite_steps": h.non_finite, "not_spd_steps": h.not_spd,
         "counts_unbalanced_steps": h.counts_unbalanced, "counts_backwards_steps": h.counts_backwards,
+        "first_failed_s": h.first_failed_ns.map(|t| t as f64 * 1e-9),
     });
     let truth = ds.groundtruth.clone().unwrap_or_default();
     write_outputs(out, &output, Some(&truth), Some(&scene))?;

@@ -265,6 +265,15 @@ fn half_second_gaps() {
     check_recovers("wheel-gap@4+0.5,flow-gap@4+0.5");
 }
 
+// A wheel gap shorter than the odometry's largest step (0.5 s) but longer
+// than the filter's (0.2 s): the odometry integrates across it, the filter
+// refuses the one step over it.
+#[test]
+fn short_wheel_gap_costs_one_sample() {
+    let run = check_recovers("wheel-gap@4+0.3");
+    assert_eq!(run.results[0].injected, 1, "{:?}", run.results[0]);
+}
+
 // While the IMU is silent the filter does not propagate; the first sample
 // after the silence is refused as a gap (dt > imu_max_dt, 20 ms) and first
 // bridges it: the wheel samples that arrived meanwhile dead-reckon the

@@ -1,10 +1,12 @@
 //! `host-sim simulate` and `host-sim replay`.
 
+use crate::chaos::{ChaosConfig, run_chaos};
 use crate::error::CliError;
 use crate::faults::{FaultPlan, kinds_help};
 use crate::replay::{ReplayOptions, ReplayOutput, run_replay_with, summary_table};
 use crate::sim::scenario::SCENARIOS;
-use crate::simulate::{run_simulate, run_simulate_faults};
+use crate::sim::scenario::SHUTTLE_DEFAULT_S;
+use crate::simulate::{scenario_for, simulate_faults, simulate_scenario};
 use clap::Args;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -20,7 +22,9 @@ use std::path::PathBuf;
                   summary table against the truth. Scenarios: office (default, 60 s: wood with a \
                   cable, carpet, tile, threshold strips, two wheel-spin episodes and a stuck \
                   episode), slip (the office with longer, stronger slip), short (first 12 s), \
-                  straight (36 s: 10 m straight at 0.3 m/s on an even wood floor, no slip episodes)."
+                  straight (36 s: 10 m straight at 0.3 m/s on an even wood floor, no slip episodes), \
+                  shuttle (the office's first leg out and back again and again, laps taking turns as \
+                  office, slip and straight laps; 300 s unless --duration says otherwise)."
 )]
 pub struct SimulateArgs {
     /// Scenario name.
@@ -38,6 +42,20 @@ pub struct SimulateArgs {
     /// spoiled sample must end in):
     #[arg(long, value_name = "LIST", long_help = faults_long_help())]
     pub faults: Option<FaultPlan>,
+    /// Seconds to run the scenario for: the shuttle drives as many laps as
+    /// fit (300 s unless given), any other scenario is cut or padded with
+    /// standing still.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+    /// Chaos: the shuttle drive with faults of every kind drawn at random
+    /// with this seed, several at once at times, every invariant checked;
+    /// the fault-free run goes to OUT/free, report.json gets a `chaos`
+    /// section, and the exit code is 1 when a check fails.
+    #[arg(long, value_name = "SEED", conflicts_with = "faults")]
+    pub chaos: Option<u64>,
+    /// Chaos: mean faults per minute.
+    #[arg(long, value_name = "N", default_value_t = 6.0, requires = "chaos")]
+    pub chaos_rate: f64,
 }
 
 fn faults_long_help() -> String {
@@ -94,20 +112,56 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
             SCENARIOS.join(", ")
         )));
     }
+    let progress = std::io::stderr().is_terminal();
+    if let Some(chaos_seed) = a.chaos {
+        if a.scenario != "office" && a.scenario != "shuttle" {
+            return Err(CliError::Usage(
+                "--chaos drives the shuttle scenario; leave --scenario out".into(),
+            ));
+        }
+        if !(a.chaos_rate.is_finite() && a.chaos_rate > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--chaos-rate {}: expected a positive number of faults a minute",
+                a.chaos_rate
+            )));
+        }
+        let config = ChaosConfig {
+            seed: chaos_seed,
+            duration_s: a.duration.unwrap_or(SHUTTLE_DEFAULT_S),
+            per_minute: a.chaos_rate,
+        };
+        println!(
+            "chaos {} on `shuttle` for {} s (seed {}) into {}",
+            chaos_seed,
+            config.duration_s,
+            a.seed,
+            a.out.display()
+        );
+        let run = run_chaos(config, a.seed, &a.out, progress)?;
+        print_summary(&run.run.output, &a.out);
+        print!("{}", run.summary());
+        return if run.ok() {
+            Ok(())
+        } else {
+            Err(CliError::NoResult(
+                "a chaos check failed (report.json `chaos`)".into(),
+            ))
+        };
+    }
+    let scenario = scenario_for(&a.scenario, a.duration)?;
     println!(
         "simulating `{}` (seed {}) into {}",
         a.scenario,
         a.seed,
         a.out.display()
     );
-    let progress = std::io::stderr().is_terminal();
     match a.faults.filter(|p| !p.is_empty()) {
         None => {
-            let r = run_simulate(&a.scenario, a.seed, &a.out, progress)?;
+            let r = simulate_scenario(&scenario, a.seed, &a.out, progress)?;
             print_summary(&r, &a.out);
         }
         Some(plan) => {
-            let run = run_simulate_faults(&a.scenario, a.seed, &a.out, progress, &plan)?;
+            let run = simulate_faults(&scenario, a.seed, &a.out, progress, &plan)?;
             print_summary(&run.output, &a.out);
             println!("faults (injected, expected outcome, as expected, observed):");
             for r in &run.results {

@@ -16,6 +16,7 @@ use std::collections::VecDeque;
 use traction::ego_ekf::FilterConfig;
 use traction::vslam_core::Timestamp;
 use traction::vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+use traction::wheel_odom::odometry::DiffDriveParams;
 
 /// How late a [`FaultKind::Late`] sample arrives, nanoseconds (three times
 /// the estimator's 20 ms ordering window).
@@ -220,9 +221,9 @@ impl<S: SensorSample, I: Iterator<Item = S>> FaultInjector<I> {
                 remaining: spec.count,
                 done: 0,
                 before_fill: false,
-                // The odometry re-anchors on the first wheel sample after a
-                // gap and the filter's own clock refuses the second: both are
-                // the gap's.
+                // After a gap longer than the odometry's largest step the
+                // odometry re-anchors on the first wheel sample and the
+                // filter's own clock refuses the second: both are the gap's.
                 after_gap: if S::SENSOR == Sensor::Wheel { 2 } else { 1 },
                 dropped: 0,
             })
@@ -292,6 +293,15 @@ impl<S: SensorSample, I: Iterator<Item = S>> FaultInjector<I> {
                         drop = true;
                         a.dropped += 1;
                     } else if a.dropped > 0 && a.after_gap > 0 {
+                        // A wheel gap no longer than the odometry's largest
+                        // step is integrated across by the odometry (no
+                        // re-anchoring): only the filter's clock refuses it.
+                        let within_odometry_step = before.is_some_and(|b| {
+                            t.saturating_sub(b.t().0) <= DiffDriveParams::MAX_STEP_NS
+                        });
+                        if S::SENSOR == Sensor::Wheel && a.after_gap == 2 && within_odometry_step {
+                            a.after_gap = 1;
+                        }
                         a.after_gap -= 1;
                         by.push(a.index);
                     }

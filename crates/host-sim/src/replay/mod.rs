@@ -61,10 +61,34 @@ pub struct Health {
     pub counts_unbalanced: u32,
     /// Steps at which a count was smaller than at the step before.
     pub counts_backwards: u32,
+    /// Time stamp of the first step that failed a check, ns.
+    pub first_failed_ns: Option<u64>,
 }
 
 impl Health {
-    fn check(&mut self, ekf: &traction::ego_ekf::EgoEkf) {
+    fn check(&mut self, ekf: &traction::ego_ekf::EgoEkf, t: Timestamp) {
+        let before = *self;
+        self.check_filter(ekf);
+        if self.first_failed_ns.is_none() && !self.same_failures(&before) {
+            self.first_failed_ns = Some(t.0);
+        }
+    }
+
+    fn same_failures(&self, o: &Health) -> bool {
+        (
+            self.non_finite,
+            self.not_spd,
+            self.counts_unbalanced,
+            self.counts_backwards,
+        ) == (
+            o.non_finite,
+            o.not_spd,
+            o.counts_unbalanced,
+            o.counts_backwards,
+        )
+    }
+
+    fn check_filter(&mut self, ekf: &traction::ego_ekf::EgoEkf) {
         if !ekf.is_initialised() {
             return;
         }
@@ -98,6 +122,20 @@ impl Health {
     /// Checks the estimator's counts `now` against the outcomes logged per
     /// stream (`logged`) and against the counts of the step before (`last`).
     fn check_counts(
+        &mut self,
+        now: &traction::vslam_core::StreamCounts,
+        last: &traction::vslam_core::StreamCounts,
+        logged: &traction::vslam_core::PerStream<u32>,
+        t: Timestamp,
+    ) {
+        let before = *self;
+        self.count_checks(now, last, logged);
+        if self.first_failed_ns.is_none() && !self.same_failures(&before) {
+            self.first_failed_ns = Some(t.0);
+        }
+    }
+
+    fn count_checks(
         &mut self,
         now: &traction::vslam_core::StreamCounts,
         last: &traction::vslam_core::StreamCounts,
@@ -229,13 +267,14 @@ mod tests {
         let mut logged = PerStream::<u32>::default();
         logged[Stream::Wheel] = 2;
         let before = StreamCounts::default();
-        h.check_counts(&now, &before, &logged);
+        h.check_counts(&now, &before, &logged, Timestamp(7));
         assert!(h.ok(), "{h:?}");
         logged[Stream::Wheel] = 3;
-        h.check_counts(&now, &before, &logged);
+        h.check_counts(&now, &before, &logged, Timestamp(7));
         assert_eq!(h.counts_unbalanced, 1, "a sample logged but not counted");
+        assert_eq!(h.first_failed_ns, Some(7));
         logged[Stream::Wheel] = 2;
-        h.check_counts(&before, &now, &PerStream::default());
+        h.check_counts(&before, &now, &PerStream::default(), Timestamp(9));
         assert_eq!(h.counts_backwards, 1, "the counts went down");
         assert!(!h.ok());
     }

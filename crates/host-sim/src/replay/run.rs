@@ -184,10 +184,10 @@ impl Collected {
     fn handle(&mut self, p: Processed, est: &Estimator<'_>) {
         self.log(processed_outcome(&p));
         if self.check_health && matches!(p, Processed::Imu { .. }) {
-            self.health.check(est.ekf());
+            self.health.check(est.ekf(), p.t());
             let now = est.counts();
             self.health
-                .check_counts(&now, &self.last_counts, &self.logged);
+                .check_counts(&now, &self.last_counts, &self.logged, p.t());
             self.last_counts = now;
         }
         if let Processed::Imu { jolt: Some(e), .. } = p {
