@@ -2,6 +2,7 @@
 //! state, covariance, grip and per-sensor status, and reports the estimate.
 //! Here the steps that change it; its read side (accessors, statuses, counts) is in `filter/read.rs`.
 
+use vslam_core::kinematics::{mid_axle, rim};
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
@@ -15,7 +16,7 @@ use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
     propagate_nominal, vertical_deviation,
 };
-use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Verdict};
+use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Refutation, Verdict};
 use crate::state::{CLONE, Covariance, NominalState, P, Quat, TH, V, Vec3};
 use crate::update::{Measurement, UpdateReport, gated_update};
 use crate::wheel::{WheelFusion, WheelInnovation};
@@ -120,6 +121,8 @@ pub struct EgoEkf {
     wheel: WheelFusion,
     flow: FlowFusion,
     recovery: RecoveryCounts,
+    /// The flow's standing verdict against the wheels' forward speed.
+    refutation: Refutation,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
     /// Whether the clone is older than the latest moving step's pose (see
@@ -187,6 +190,7 @@ impl EgoEkf {
                 config.flow.map_or(0.0, |f| f.base_std),
             ),
             recovery: RecoveryCounts::default(),
+            refutation: Refutation::default(),
             gaps: GapCounts::default(),
             gap_odometry: GapOdometry::new(),
             clone_due: false,
@@ -231,6 +235,7 @@ impl EgoEkf {
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
         self.clone_due = false;
+        self.refutation.clear();
         self.imu_clock.reset();
         // Anchor the IMU clock at the start time; cannot fail after a reset.
         let _ = self.imu_clock.accept(t);
@@ -418,6 +423,25 @@ impl EgoEkf {
                 .offer(now, rates, &geometry, witness, &self.config);
         }
         let gyro = self.angular_velocity();
+        let refuted = self.refutation.is_active() && {
+            let speed = mid_axle(
+                rim(self.x.radius_left, rates.left()),
+                rim(self.x.radius_right, rates.right()),
+            );
+            let witness = recovery::recent(
+                self.flow_max_age_ns(),
+                self.flow_witness_at(rates.t()),
+                rates.t(),
+            );
+            self.refutation.holds(
+                &self.config.recovery,
+                rates.t(),
+                speed,
+                self.grip.forward_std(),
+                self.grip.forward_gate(),
+                witness,
+            )
+        };
         let mut out = self.wheel.fuse(
             &mut self.x,
             &mut self.p,
@@ -426,6 +450,7 @@ impl EgoEkf {
             &self.grip,
             now,
             &self.config.recovery,
+            refuted,
         );
         if let Ok(inn) = out.as_mut()
             && inn.gated
@@ -471,6 +496,13 @@ impl EgoEkf {
             &mut self.p,
             &gyro,
         );
+        match verdict {
+            Verdict::Reset(recovery::ResetSource::Flow) if recovery::wheels_refuted(&evidence) => {
+                self.refutation.refute(rates.t());
+            }
+            Verdict::Reset(_) => self.refutation.clear(),
+            _ => {}
+        }
         if let Verdict::Reset(_) = verdict {
             self.wheel.end_run();
         }

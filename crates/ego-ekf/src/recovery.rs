@@ -13,9 +13,9 @@
 //!
 //! 1. a recent flow report of valid quality ([`FlowWitness`]): if the flow
 //!    disagrees with the filter beyond the flow gate, or if the wheels agree
-//!    with the flow (two sensors against the filter), the velocity is reset to
-//!    the flow; if the filter agrees with the flow and the wheels agree with
-//!    neither, the wheels slip: keep gating ([`Verdict::WheelsSlip`]);
+//!    with the flow, nearer to them than to the filter (two sensors against
+//!    the filter), the velocity is reset to the flow; otherwise the wheels
+//!    slip: keep gating ([`Verdict::WheelsSlip`]);
 //! 2. without flow, the wheels themselves, but only if nothing says they slip:
 //!    the floor's grip is high ([`RecoveryConfig::wheel_min_grip`]) and the
 //!    IMU agrees with the wheels about the motion. The IMU measures
@@ -34,6 +34,15 @@
 //!    compared, and a jump inside the run that brings the wheels back
 //!    towards the filter ends a slip: those onsets are trusted;
 //! 3. otherwise keep gating and say so ([`Verdict::NoTrustedSource`]).
+//!
+//! A reset to the flow while the wheels disagree with it (the filter had
+//! drifted, and the wheels spin: a lifted robot's free wheels, the flow
+//! seeing the floor stand still) leaves the velocity as uncertain as the
+//! flow's mean, loose enough for the spinning wheels to pass the gate. So
+//! the flow's verdict against the wheels is kept ([`Refutation`]): their
+//! forward speed stays gated while a recent flow witness still disagrees
+//! with it, until the witness agrees, the wheels are reset to, or no
+//! witness is heard for [`RecoveryConfig::silence_ns`].
 //!
 //! A reset ([`re_examine`]) replaces the horizontal robot-origin velocity by
 //! the source's and its covariance block by the source's variance,
@@ -367,8 +376,14 @@ pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<
             f.velocity.x,
             flow_var,
         );
+        // The wheels vouch for the flow only when its forward speed is
+        // nearer to theirs than to the filter's: a flow too vague to tell
+        // the two apart (a lifted robot's sensor, out of focus) agrees with
+        // both and decides nothing.
+        let forward_vs_filter = d.x * d.x / (flow_var + e.filter_var).max(f32::MIN_POSITIVE);
+        let wheels_vouch = wheel_vs_flow <= e.wheel_gate && wheel_vs_flow < forward_vs_filter;
         // NaN compares false: no reset on a non-finite comparison.
-        if flow_vs_filter > e.flow_gate || wheel_vs_flow <= e.wheel_gate {
+        if flow_vs_filter > e.flow_gate || wheels_vouch {
             return Verdict::Reset(ResetSource::Flow);
         }
         return Verdict::WheelsSlip;
@@ -382,6 +397,82 @@ pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<
         return Verdict::Reset(ResetSource::Wheels);
     }
     Verdict::NoTrustedSource
+}
+
+/// Whether the wheels disagree with the flow witness of `evidence` (its
+/// wheels' 1-DOF gate): a reset to that flow leaves them refuted.
+pub fn wheels_refuted(evidence: &Evidence<'_>) -> bool {
+    evidence.flow.is_some_and(|f| {
+        disagreement(
+            evidence.wheel_speed,
+            evidence.wheel_std * evidence.wheel_std,
+            f.velocity.x,
+            f.std * f.std,
+        ) > evidence.wheel_gate
+    })
+}
+
+/// The flow's standing verdict against the wheels' forward speed (module
+/// docs): set by a reset to a flow that disagreed with the wheels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Refutation {
+    /// When a witness last disagreed with the wheels, while refuted.
+    confirmed: Option<Timestamp>,
+}
+
+impl Refutation {
+    /// The wheels are refuted from `t`.
+    pub fn refute(&mut self, t: Timestamp) {
+        self.confirmed = Some(t);
+    }
+
+    /// The refutation is lifted.
+    pub fn clear(&mut self) {
+        self.confirmed = None;
+    }
+
+    /// Whether the wheels are refuted.
+    pub fn is_active(&self) -> bool {
+        self.confirmed.is_some()
+    }
+
+    /// Whether the wheels' forward `speed` (standard deviation `std`, 1-DOF
+    /// gate `gate`) at `t` is still refuted by `witness` (recent, or
+    /// `None`): a precise witness that disagrees confirms it, one that
+    /// agrees lifts it, and so does silence longer than
+    /// [`RecoveryConfig::silence_ns`] since the last confirmation.
+    pub fn holds(
+        &mut self,
+        config: &RecoveryConfig,
+        t: Timestamp,
+        speed: f32,
+        std: f32,
+        gate: f32,
+        witness: Option<FlowWitness>,
+    ) -> bool {
+        let Some(confirmed) = self.confirmed else {
+            return false;
+        };
+        match witness.filter(|w| w.std <= config.flow_witness_max_std) {
+            Some(w) => {
+                let d = disagreement(speed, std * std, w.velocity.x, w.std * w.std);
+                // NaN compares false: a non-finite comparison lifts it.
+                if d > gate {
+                    self.confirmed = Some(t);
+                } else {
+                    self.confirmed = None;
+                }
+            }
+            None => {
+                if t.nanos_since(confirmed)
+                    .is_some_and(|d| d > config.silence_ns)
+                {
+                    self.confirmed = None;
+                }
+            }
+        }
+        self.confirmed.is_some()
+    }
 }
 
 /// Decides on `evidence` ([`decide`]) and applies the verdict: a

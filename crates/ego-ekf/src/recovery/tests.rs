@@ -92,6 +92,60 @@ fn a_vague_flow_mean_is_no_witness() {
 }
 
 #[test]
+fn a_flow_nearer_the_filter_than_the_wheels_does_not_vouch_for_them() {
+    // A lifted robot, the flow's mean just precise enough to be a witness:
+    // it sees the floor stand still as the filter does; the free wheels at
+    // 0.4 m/s pass its loose wheel test but it is far nearer the filter.
+    let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
+    let run = steady_run(&c, false);
+    let e = Evidence {
+        filter_velocity: Vector2::new(0.02, 0.0),
+        wheel_speed: 0.4,
+        ..evidence(&run, witness(0.0, 0.19))
+    };
+    assert!(disagreement(0.4, 0.02 * 0.02, 0.0, 0.19 * 0.19) <= e.wheel_gate);
+    assert_eq!(decide(&c, &w, &e), Verdict::WheelsSlip);
+    // Nearer the wheels than the filter, the same flow vouches for them.
+    let e = Evidence {
+        filter_velocity: Vector2::new(0.0, 0.0),
+        wheel_speed: 0.4,
+        ..evidence(&run, witness(0.3, 0.19))
+    };
+    assert_eq!(decide(&c, &w, &e), Verdict::Reset(ResetSource::Flow));
+}
+
+#[test]
+fn a_reset_to_a_flow_the_wheels_disagree_with_keeps_them_refuted() {
+    let c = RecoveryConfig::default();
+    let run = steady_run(&c, false);
+    // The filter ran away (0.6 m/s); the flow sees 0.3; the wheels spin at 0.3
+    // in `evidence`: they agree, nothing refuted.
+    assert!(!wheels_refuted(&evidence(&run, witness(0.3, 0.02))));
+    // Wheels at 0.3 against a flow of 0.0: refuted.
+    assert!(wheels_refuted(&evidence(&run, witness(0.0, 0.02))));
+    assert!(!wheels_refuted(&evidence(&run, None)));
+
+    let mut r = Refutation::default();
+    let t = |ms: u64| Timestamp(ms * 1_000_000);
+    assert!(!r.holds(&c, t(0), 0.4, 0.02, 6.63, witness(0.0, 0.05)), "not refuted yet");
+    r.refute(t(0));
+    // Still against a witness that disagrees, and through a short silence.
+    assert!(r.holds(&c, t(100), 0.4, 0.02, 6.63, witness(0.0, 0.05)));
+    assert!(r.holds(&c, t(300), 0.4, 0.02, 6.63, None));
+    assert!(r.holds(&c, t(350), 0.4, 0.02, 6.63, witness(0.0, 0.5)), "a vague mean is silence");
+    // A long silence lifts it.
+    assert!(!r.holds(&c, t(100 + 501), 0.4, 0.02, 6.63, None));
+    assert!(!r.is_active());
+    // So does a witness that agrees with the wheels.
+    r.refute(t(1000));
+    assert!(!r.holds(&c, t(1010), 0.01, 0.02, 6.63, witness(0.0, 0.05)));
+    r.refute(t(2000));
+    r.clear();
+    assert!(!r.is_active());
+}
+
+#[test]
 fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
     let c = RecoveryConfig::default();
     let w = WheelConfig::default();

@@ -117,7 +117,9 @@ impl WheelFusion {
 
     /// Checks, gates and fuses one sample at the filter time `now`; see the
     /// module documentation. A gated sample extends the gated run (with the
-    /// `recovery` configuration's steadiness and onset rules).
+    /// `recovery` configuration's steadiness and onset rules). `refuted`:
+    /// the flow stands against the wheels' forward speed, which is gated
+    /// whatever its test ([`crate::recovery::Refutation`]).
     #[allow(clippy::too_many_arguments)]
     pub fn fuse(
         &mut self,
@@ -128,8 +130,9 @@ impl WheelFusion {
         grip: &GripParams,
         now: Timestamp,
         recovery: &RecoveryConfig,
+        refuted: bool,
     ) -> Result<WheelInnovation, Reject> {
-        let checked = self.fuse_inner(x, p, gyro, rates, grip, now);
+        let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
             Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t(), inn.forward),
@@ -171,6 +174,7 @@ impl WheelFusion {
         rates: &WheelRates,
         grip: &GripParams,
         now: Timestamp,
+        refuted: bool,
     ) -> Result<(WheelInnovation, GatedRows), Reject> {
         match rates.t().nanos_since(now) {
             Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
@@ -197,7 +201,10 @@ impl WheelFusion {
             rim(x.radius_right, rates.right()),
         );
         let [noise_fwd, noise_diff, ..] = rows.noise;
-        let u = update(x, p, &rows, grip.forward_gate())?;
+        // Refuted by the flow ([`crate::recovery::Refutation`]): the
+        // forward and differential rows are gated whatever their test says.
+        let gate = if refuted { 0.0 } else { grip.forward_gate() };
+        let u = update(x, p, &rows, gate)?;
         let inn = WheelInnovation {
             forward: u.forward,
             forward_var: u.forward_var,

@@ -239,7 +239,10 @@ mod tests {
         let long: Vec<Planar> = truth.iter().map(|g| p(g.t, 1.1 * g.x, 0.0, 0.0)).collect();
         let r = rpe(&long, &truth, 2.0, 8.0).unwrap();
         assert!((r - 0.6).abs() < 1e-9, "{r}");
-        assert!(rpe(&long, &truth, -5.0, 1.0).is_none(), "no pose before the start");
+        assert!(
+            rpe(&long, &truth, -5.0, 1.0).is_none(),
+            "no pose before the start"
+        );
     }
 
     #[test]
