@@ -246,6 +246,7 @@ pub fn simulate_faults(
     let h = output.health;
     output.report["faults"]["health"] = serde_json::json!({
         "imu_steps_checked": h.steps, "non_finite_steps": h.non_finite, "not_spd_steps": h.not_spd,
+        "with_clone_not_spd_steps": h.clone_not_spd,
         "counts_unbalanced_steps": h.counts_unbalanced, "counts_backwards_steps": h.counts_backwards,
         "first_failed_s": h.first_failed_ns.map(|t| t as f64 * 1e-9),
     });

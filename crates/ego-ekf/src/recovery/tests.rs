@@ -128,12 +128,18 @@ fn a_reset_to_a_flow_the_wheels_disagree_with_keeps_them_refuted() {
 
     let mut r = Refutation::default();
     let t = |ms: u64| Timestamp(ms * 1_000_000);
-    assert!(!r.holds(&c, t(0), 0.4, 0.02, 6.63, witness(0.0, 0.05)), "not refuted yet");
+    assert!(
+        !r.holds(&c, t(0), 0.4, 0.02, 6.63, witness(0.0, 0.05)),
+        "not refuted yet"
+    );
     r.refute(t(0));
     // Still against a witness that disagrees, and through a short silence.
     assert!(r.holds(&c, t(100), 0.4, 0.02, 6.63, witness(0.0, 0.05)));
     assert!(r.holds(&c, t(300), 0.4, 0.02, 6.63, None));
-    assert!(r.holds(&c, t(350), 0.4, 0.02, 6.63, witness(0.0, 0.5)), "a vague mean is silence");
+    assert!(
+        r.holds(&c, t(350), 0.4, 0.02, 6.63, witness(0.0, 0.5)),
+        "a vague mean is silence"
+    );
     // A long silence lifts it.
     assert!(!r.holds(&c, t(100 + 501), 0.4, 0.02, 6.63, None));
     assert!(!r.is_active());

@@ -164,7 +164,7 @@ impl ChaosRun {
             "faults": self.plan.faults.len(),
             "most_at_once": self.most_at_once,
             "health": {"imu_steps_checked": h.steps, "non_finite_steps": h.non_finite,
-                "not_spd_steps": h.not_spd, "counts_unbalanced_steps": h.counts_unbalanced,
+                "not_spd_steps": h.not_spd, "with_clone_not_spd_steps": h.clone_not_spd, "counts_unbalanced_steps": h.counts_unbalanced,
                 "counts_backwards_steps": h.counts_backwards,
                 "first_failed_s": h.first_failed_ns.map(|t| t as f64 * 1e-9)},
             "unexpected_outcomes": self.unexpected().iter().map(|&i| self.plan.faults[i].to_string()).collect::<Vec<_>>(),
@@ -191,10 +191,11 @@ impl ChaosRun {
             self.most_at_once
         );
         s += &format!(
-            "every IMU step ({}): non-finite {}, covariance not SPD {}, counts unbalanced {}, counts backwards {}{}\n",
+            "every IMU step ({}): non-finite {}, covariance not SPD {} (with the pose clone's copy {}), counts unbalanced {}, counts backwards {}{}\n",
             h.steps,
             h.non_finite,
             h.not_spd,
+            h.clone_not_spd,
             h.counts_unbalanced,
             h.counts_backwards,
             h.first_failed_ns

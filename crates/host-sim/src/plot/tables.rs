@@ -441,10 +441,11 @@ pub fn faults_table(faults: &Value) -> String {
     let h = &faults["health"];
     if h.is_object() {
         s += &note(&format!(
-            "IMU steps checked {}, non-finite steps {}, not positive definite {}",
+            "IMU steps checked {}, non-finite steps {}, not positive definite {} (the whole matrix, pose clone included: {})",
             count(&h["imu_steps_checked"]).html,
             count(&h["non_finite_steps"]).html,
-            count(&h["not_spd_steps"]).html
+            count(&h["not_spd_steps"]).html,
+            count(&h["with_clone_not_spd_steps"]).html
         ));
     }
     s
