@@ -1,9 +1,11 @@
 //! `errors.svg`: planar position error and yaw error over time of each
 //! trajectory against the truth (interpolated at the estimate's time
-//! stamps, no alignment, [`super::track`]), on one time axis. Each panel's
-//! scale is set on the trajectories that stay near the truth (as in
-//! [`super::trajectory`]); one that runs farther is clipped at the panel's
-//! edge, marked where it leaves, with its largest error in the legend. The
+//! stamps, no alignment, [`super::track`]), on one time axis. The position
+//! panel's scale is set on the EKF and the camera path, and on the wheels
+//! alone when their largest error is at most [`WHEELS_FRAMED_UP_TO`] times
+//! the larger of those two; the yaw panel's likewise. A trace beyond the
+//! scale is clipped at the panel's edge, marked where it leaves, with its
+//! largest error in the legend. The
 //! markers of the top view are here over time: slip, stuck and lift
 //! episodes as bands, cable and strip crossings as lines, the estimator's
 //! events along the top.
@@ -11,7 +13,6 @@
 use super::axes::{Frame, Range, nice_step, points};
 use super::markers::{self, LEGEND_LINE, Mark, SLIP_COLOUR, Swatch, legend_row};
 use super::track::{self, ErrorSample};
-use super::trajectory::{NEAR_FRACTION, NEAR_M};
 use super::{
     EKF_COLOUR, EKF_WIDTH, PlotInputs, VSLAM_COLOUR, VSLAM_WIDTH, WHEEL_COLOUR, WHEEL_WIDTH,
     estimator_events,
@@ -33,13 +34,16 @@ const STUCK_COLOUR: &str = "#b71c1c";
 /// Colour of a lift episode's band.
 const LIFT_COLOUR: &str = "#6a1b9a";
 
+/// The wheels alone set the scale while their largest error is at most
+/// this many times the larger of the EKF's and the camera path's.
+pub const WHEELS_FRAMED_UP_TO: f64 = 3.0;
+
 struct Trace {
     key: &'static str,
     label: &'static str,
     colour: &'static str,
     width: f64,
     errors: Vec<ErrorSample>,
-    near: bool,
 }
 
 fn thin(v: &[ErrorSample]) -> impl Iterator<Item = &ErrorSample> {
@@ -56,21 +60,12 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
 "#,
         );
     }
-    let extent = Range::of(truth.iter().map(|p| p.x))
-        .zip(Range::of(truth.iter().map(|p| p.y)))
-        .map_or(0.0, |(x, y)| x.span().max(y.span()));
-    let near_limit = NEAR_M.max(NEAR_FRACTION * extent);
-    let trace = |key, label, colour, width, v: &[_]| {
-        let errors = track::errors(&track::from_tum(v), &truth);
-        let near = errors.iter().all(|e| e.position <= near_limit);
-        Trace {
-            key,
-            label,
-            colour,
-            width,
-            errors,
-            near,
-        }
+    let trace = |key, label, colour, width, v: &[_]| Trace {
+        key,
+        label,
+        colour,
+        width,
+        errors: track::errors(&track::from_tum(v), &truth),
     };
     let traces = [
         trace(
@@ -89,17 +84,20 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
         ),
         trace("ekf", "EKF", EKF_COLOUR, EKF_WIDTH, i.ekf),
     ];
-    let framing: Vec<&Trace> = {
-        let near: Vec<&Trace> = traces
-            .iter()
-            .filter(|t| t.near && !t.errors.is_empty())
-            .collect();
-        if near.is_empty() {
-            traces.iter().collect()
-        } else {
-            near
+    let largest =
+        |t: &Trace, f: fn(&ErrorSample) -> f64| t.errors.iter().map(f).fold(0.0f64, f64::max);
+    // The estimates always; the wheels alone when they stay comparable.
+    let framing_for = |f: fn(&ErrorSample) -> f64| -> Vec<&Trace> {
+        let [wheels, estimates @ ..] = &traces;
+        let mut v: Vec<&Trace> = estimates.iter().filter(|t| !t.errors.is_empty()).collect();
+        let top = v.iter().map(|t| largest(t, f)).fold(0.0f64, f64::max);
+        if v.is_empty() || largest(wheels, f) <= WHEELS_FRAMED_UP_TO * top {
+            v.push(wheels);
         }
+        v
     };
+    let framing = framing_for(|e| e.position);
+    let framing_yaw = framing_for(|e| e.yaw_deg.abs());
     let t_range = Range::of(truth.iter().map(|p| p.t))
         .unwrap_or(Range { lo: 0.0, hi: 1.0 })
         .at_least(1.0);
@@ -111,7 +109,7 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
         lo: 0.0,
         hi: (1.1 * pos_max).max(0.05),
     };
-    let yaw_max = framing
+    let yaw_max = framing_yaw
         .iter()
         .flat_map(|t| t.errors.iter().map(|e| e.yaw_deg.abs()))
         .fold(0.0f64, f64::max);

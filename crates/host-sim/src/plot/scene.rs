@@ -10,6 +10,9 @@ use crate::sim::script::EpisodeKind;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// Largest distance of anything in a scene from the origin, metres.
+pub const SCENE_LIMIT_M: f64 = 1.0e5;
+
 /// File name of the scene, in the dataset folder (beside `mav0`).
 pub const SCENE_FILE: &str = "world.json";
 
@@ -123,9 +126,47 @@ impl Scene {
         }
         let text = std::fs::read_to_string(&p)
             .map_err(|e| CliError::file(&p, format!("cannot read: {e}")))?;
-        serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| CliError::file(&p, format!("not a scene: {e}")))
+        let scene: Scene = serde_json::from_str(&text)
+            .map_err(|e| CliError::file(&p, format!("not a scene: {e}")))?;
+        scene
+            .check()
+            .map(|()| Some(scene))
+            .map_err(|e| CliError::file(&p, e))
+    }
+
+    /// Every position within [`SCENE_LIMIT_M`] of the origin, every room
+    /// and episode with its end after its start, every room on a known
+    /// surface.
+    pub fn check(&self) -> Result<(), String> {
+        let near = |v: &f64| v.is_finite() && v.abs() <= SCENE_LIMIT_M;
+        for (i, r) in self.rooms.iter().enumerate() {
+            let ok =
+                r.min.iter().chain(&r.max).all(near) && r.min[0] < r.max[0] && r.min[1] < r.max[1];
+            if !ok {
+                return Err(format!(
+                    "room {i}: corners within {SCENE_LIMIT_M} m, min below max"
+                ));
+            }
+            if !["wood", "carpet", "tile", "concrete"].contains(&r.surface.as_str()) {
+                return Err(format!("room {i}: unknown surface `{}`", r.surface));
+            }
+        }
+        for (i, st) in self.strips.iter().enumerate() {
+            if !(near(&st.at) && (0.0..=1.0).contains(&st.height)) {
+                return Err(format!(
+                    "strip {i}: position within {SCENE_LIMIT_M} m, height 0..1 m"
+                ));
+            }
+        }
+        for (i, e) in self.episodes.iter().enumerate() {
+            if e.end_ns < e.start_ns {
+                return Err(format!("episode {i}: ends before it starts"));
+            }
+            if !["slip", "stuck", "lifted"].contains(&e.kind.as_str()) {
+                return Err(format!("episode {i}: unknown kind `{}`", e.kind));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -146,6 +187,11 @@ mod tests {
         assert_eq!(Scene::read(&dir).unwrap(), Some(scene));
         std::fs::write(dir.join(SCENE_FILE), "{").unwrap();
         assert!(Scene::read(&dir).is_err());
+        let mut bad = Scene::of(&sc);
+        bad.rooms[0].max[0] = bad.rooms[0].min[0];
+        bad.write(&dir).unwrap();
+        let e = Scene::read(&dir).unwrap_err().to_string();
+        assert!(e.contains("world.json") && e.contains("room 0"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
         assert_eq!(Scene::read(&dir).unwrap(), None);
     }

@@ -1,0 +1,61 @@
+//! Chaos in CI: five minutes of the shuttle drive with faults of every kind
+//! drawn at random (seed 1, six a minute, several at once at times), against
+//! the fault-free run of the same drive (`host-sim simulate --chaos 1
+//! --duration 300`). Asserted: at every IMU step the state finite, the
+//! covariance (pose clone aside) symmetric positive definite, each stream's
+//! count equal to the samples that reached the estimator and no count going
+//! backwards; after every cluster of faults the wheels and the flow sensor
+//! fused again within 2 s; the report's `chaos` section consistent with the
+//! run. Reported, not asserted: the faults whose spoiled samples did not all
+//! end as expected and the clusters whose error exceeded 1.2x the fault-free
+//! run's (README: what the runs found).
+
+use host_sim::chaos::{ChaosConfig, run_chaos};
+use serde_json::Value;
+
+#[test]
+fn five_minutes_of_chaos_keep_every_invariant() {
+    let out = std::env::temp_dir().join(format!("traction-chaos-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let config = ChaosConfig {
+        seed: 1,
+        duration_s: 300.0,
+        per_minute: 6.0,
+    };
+    let run = run_chaos(config, 1, &out, false).unwrap();
+    eprint!("{}", run.summary());
+    let h = run.health();
+    assert!(h.steps > 70_000, "{h:?}");
+    assert_eq!((h.non_finite, h.not_spd), (0, 0), "{h:?}");
+    assert_eq!((h.counts_unbalanced, h.counts_backwards), (0, 0), "{h:?}");
+    assert!(
+        run.lockouts().is_empty(),
+        "wheels or flow out for more than 2 s"
+    );
+    // A draw of this size meets most kinds, overlapping.
+    assert!(run.plan.faults.len() >= 20, "{}", run.plan.faults.len());
+    assert!(run.most_at_once >= 2);
+    assert!(run.clusters.len() >= 10);
+    // Nearly every spoiled sample ends as its kind expects.
+    let injected: u32 = run.run.results.iter().map(|r| r.injected).sum();
+    let expected: u32 = run.run.results.iter().map(|r| r.as_expected).sum();
+    assert!(
+        injected > 200 && expected * 20 >= injected * 19,
+        "{expected} of {injected}"
+    );
+    // report.json as written.
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let c = &report["chaos"];
+    assert_eq!(c["faults"], run.plan.faults.len());
+    assert_eq!(c["clusters"].as_array().unwrap().len(), run.clusters.len());
+    assert_eq!(c["ok"], run.ok());
+    assert_eq!(report["faults"]["plan"], run.plan.to_string());
+    let worst = c["worst"]["command"].as_str().unwrap();
+    assert!(
+        worst.starts_with("host-sim simulate --scenario shuttle --duration 300 --seed 1 --faults ")
+    );
+    // The fault-free run is beside it.
+    assert!(out.join("free/report.json").exists());
+    std::fs::remove_dir_all(&out).unwrap();
+}
