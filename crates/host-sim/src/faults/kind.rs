@@ -74,6 +74,11 @@ pub enum Expected {
     Fused,
     /// Fused or gated: a plausible value the chi-square gate judges.
     FusedOrGated,
+    /// Out of range, or gated when the spoiled value is still a possible
+    /// one (a count increment a hundred times that of a robot starting
+    /// from rest is a speed the wheels can have: the filter's gate
+    /// refuses it).
+    OutOfRangeOrGated,
 }
 
 impl Expected {
@@ -83,6 +88,7 @@ impl Expected {
             Expected::Reject(r) => r.name(),
             Expected::Fused => "fused",
             Expected::FusedOrGated => "fused_or_gated",
+            Expected::OutOfRangeOrGated => "out_of_range_or_gated",
         }
     }
 
@@ -92,6 +98,9 @@ impl Expected {
             Expected::Reject(r) => observed == r.name(),
             Expected::Fused => observed == "fused",
             Expected::FusedOrGated => observed == "fused" || observed == "gated",
+            Expected::OutOfRangeOrGated => {
+                observed == Reject::OutOfRange.name() || observed == Reject::Gated.name()
+            }
         }
     }
 }
@@ -324,7 +333,8 @@ impl FaultKind {
             ImuNan | ImuInf => Expected::Reject(Reject::NonFinite),
             ImuOutlier | ImuStuck => Expected::Fused,
             ImuSaturated | FlowLimit => Expected::Reject(Reject::Saturated),
-            WheelOutlier | WheelWrap => Expected::Reject(Reject::OutOfRange),
+            WheelOutlier => Expected::OutOfRangeOrGated,
+            WheelWrap => Expected::Reject(Reject::OutOfRange),
             WheelStuck | FlowStuck | FlowLowSqual => Expected::FusedOrGated,
             FlowOutlier | Stuck => Expected::Reject(Reject::Gated),
             FlowTextureless | CamBlack | CamSaturated | CamUniform | CamBlur | SegNoGround
@@ -365,7 +375,9 @@ impl FaultKind {
             }
             ImuSaturated => "gyro z at full scale for DUR (default 0.5 s) -> saturated",
             ImuStuck => "IMU repeats its last reading for DUR (0.5 s) -> fused",
-            WheelOutlier => "count increment x100 in COUNT samples -> out_of_range",
+            WheelOutlier => {
+                "count increment x100 in COUNT samples -> out_of_range (gated when still a possible speed)"
+            }
             WheelStuck => "counts frozen for DUR (0.5 s) -> fused_or_gated",
             FlowOutlier => "counts x100 in COUNT reports -> gated",
             FlowStuck => "repeats its last report for DUR (0.5 s) -> fused_or_gated",
