@@ -59,3 +59,33 @@ fn five_minutes_of_chaos_keep_every_invariant() {
     assert!(out.join("free/report.json").exists());
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// An hour's chaos plans, through the simulated encoders and the real
+/// driver: every read either gives ticks or fails with a reason that a
+/// fault of the plan explains (the read just after a wrap-around window
+/// still sees its last jump); none aborts the generation.
+#[test]
+fn an_hour_of_chaos_plans_goes_through_the_encoder_driver() {
+    use host_sim::chaos::draw;
+    use host_sim::sim::drivers::wheels_through_driver_with;
+    use host_sim::sim::motion::integrate;
+    use host_sim::sim::sensors::wheel_angles;
+    use host_sim::simulate::scenario_for;
+    for seed in 1..=3 {
+        let sc = scenario_for("shuttle", Some(3600.0)).unwrap();
+        let config = ChaosConfig {
+            seed,
+            duration_s: 3600.0,
+            per_minute: 6.0,
+        };
+        let plan = draw(&config, &sc);
+        let driven = host_sim::faults::scenario::apply(&plan, &sc);
+        let truth = integrate(&driven.world, &driven.script, &driven.robot);
+        let reads = wheels_through_driver_with(&wheel_angles(&truth, driven.wheel_rate_hz), &plan)
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        assert!(
+            !reads.failed.is_empty() && reads.samples.len() > 170_000,
+            "seed {seed}"
+        );
+    }
+}

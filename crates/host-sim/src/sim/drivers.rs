@@ -165,8 +165,13 @@ pub fn wheels_through_driver_with(
         samples: Vec::with_capacity(samples.len()),
         ..DriverReads::default()
     };
+    // The wrap fault of the previous read: the read right after a wrap
+    // window still sees its last jump.
+    let mut previous_wrap: Option<usize> = None;
     for (t, l, r) in samples {
         let wrapping = wraps.iter().find(|(_, f)| f.covers(t.0)).map(|(i, _)| *i);
+        let spill = previous_wrap.filter(|_| wrapping.is_none());
+        previous_wrap = wrapping;
         if wrapping.is_some() {
             extra_turns += WRAP_TURNS_PER_READ;
         }
@@ -207,7 +212,7 @@ pub fn wheels_through_driver_with(
                     Some(_) => Reject::Integrity,
                     None => Reject::OutOfRange,
                 };
-                let Some(fault) = fault.or(wrapping) else {
+                let Some(fault) = fault.or(wrapping).or(spill) else {
                     return Err(driver_error("encoder read", e));
                 };
                 out.failed.push(FailedRead {
