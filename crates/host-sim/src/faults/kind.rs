@@ -79,6 +79,9 @@ pub enum Expected {
     /// from rest is a speed the wheels can have: the filter's gate
     /// refuses it).
     OutOfRangeOrGated,
+    /// Fused, or saturated when the spoiled value is beyond the sensor's
+    /// full scale (a hundredfold rate while the robot turns).
+    FusedOrSaturated,
 }
 
 impl Expected {
@@ -89,6 +92,7 @@ impl Expected {
             Expected::Fused => "fused",
             Expected::FusedOrGated => "fused_or_gated",
             Expected::OutOfRangeOrGated => "out_of_range_or_gated",
+            Expected::FusedOrSaturated => "fused_or_saturated",
         }
     }
 
@@ -100,6 +104,9 @@ impl Expected {
             Expected::FusedOrGated => observed == "fused" || observed == "gated",
             Expected::OutOfRangeOrGated => {
                 observed == Reject::OutOfRange.name() || observed == Reject::Gated.name()
+            }
+            Expected::FusedOrSaturated => {
+                observed == "fused" || observed == Reject::Saturated.name()
             }
         }
     }
@@ -331,7 +338,8 @@ impl FaultKind {
         use FaultKind::*;
         match self {
             ImuNan | ImuInf => Expected::Reject(Reject::NonFinite),
-            ImuOutlier | ImuStuck => Expected::Fused,
+            ImuOutlier => Expected::FusedOrSaturated,
+            ImuStuck => Expected::Fused,
             ImuSaturated | FlowLimit => Expected::Reject(Reject::Saturated),
             WheelOutlier => Expected::OutOfRangeOrGated,
             WheelWrap => Expected::Reject(Reject::OutOfRange),
@@ -371,7 +379,7 @@ impl FaultKind {
             ImuNan => "gyro x NaN in COUNT samples -> non_finite",
             ImuInf => "accel y +inf in COUNT samples -> non_finite",
             ImuOutlier => {
-                "gyro z x100 in COUNT samples -> fused (an IMU sample is integrated, never gated)"
+                "gyro z x100 in COUNT samples -> fused (an IMU sample is integrated, never gated; saturated beyond full scale)"
             }
             ImuSaturated => "gyro z at full scale for DUR (default 0.5 s) -> saturated",
             ImuStuck => "IMU repeats its last reading for DUR (0.5 s) -> fused",
