@@ -142,32 +142,45 @@ impl Script {
             .unwrap_or(0.0)
     }
 
+    /// The office drive's first leg at 0.3 m/s: 2.7 m straight, a side step
+    /// of two 20 degree arcs of 3 m radius, 6.2 m straight (over the first
+    /// strip, the carpet and the second strip onto the tile).
+    pub fn office_leg() -> [Segment; 4] {
+        let d = std::f64::consts::PI / 9.0;
+        [
+            Segment::Straight {
+                length: 2.7,
+                speed: 0.3,
+            },
+            Segment::Arc {
+                radius: 3.0,
+                angle: d,
+                speed: 0.3,
+            },
+            Segment::Arc {
+                radius: 3.0,
+                angle: -d,
+                speed: 0.3,
+            },
+            Segment::Straight {
+                length: 6.2,
+                speed: 0.3,
+            },
+        ]
+    }
+
     /// The office drive (60 s): wood with a cable, a threshold strip, carpet,
     /// another strip, tile, a turn and back onto the carpet, with two episodes
     /// of wheels spinning faster than the ground and one stuck episode.
     pub fn office() -> Self {
-        let d = std::f64::consts::PI / 9.0;
+        let [a, b, c, e] = Self::office_leg();
         Script {
             segments: vec![
                 Segment::Wait { duration: 1.0 },
-                Segment::Straight {
-                    length: 2.7,
-                    speed: 0.3,
-                },
-                Segment::Arc {
-                    radius: 3.0,
-                    angle: d,
-                    speed: 0.3,
-                },
-                Segment::Arc {
-                    radius: 3.0,
-                    angle: -d,
-                    speed: 0.3,
-                },
-                Segment::Straight {
-                    length: 6.2,
-                    speed: 0.3,
-                },
+                a,
+                b,
+                c,
+                e,
                 Segment::Spin {
                     angle: std::f64::consts::PI,
                     rate: 0.8,
@@ -239,27 +252,7 @@ impl Script {
     /// 1 s at the start and 0.5 s around each turn, so every turn starts and
     /// ends at rest and the lap closes on itself. About 84 s.
     pub fn shuttle_lap() -> Vec<Segment> {
-        let d = std::f64::consts::PI / 9.0;
-        let leg = [
-            Segment::Straight {
-                length: 2.7,
-                speed: 0.3,
-            },
-            Segment::Arc {
-                radius: 3.0,
-                angle: d,
-                speed: 0.3,
-            },
-            Segment::Arc {
-                radius: 3.0,
-                angle: -d,
-                speed: 0.3,
-            },
-            Segment::Straight {
-                length: 6.2,
-                speed: 0.3,
-            },
-        ];
+        let leg = Self::office_leg();
         let turn = [
             Segment::Wait { duration: 0.5 },
             Segment::Spin {
