@@ -339,3 +339,34 @@ fn a_simulated_run_draws_its_world_its_traces_and_its_events() {
     }
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+#[test]
+fn injected_faults_are_drawn_along_the_error_plot() {
+    let s = synthetic();
+    let report = json!({"faults": {"faults": [
+        {"fault": "wheel-gap@5+2", "start_s": 5.0, "window_end_s": 7.0},
+        {"fault": "imu-nan@20x3", "start_s": 20.0, "window_end_s": 20.012},
+        {"fault": "late", "start_s": 99.0, "window_end_s": 100.0},
+    ]}});
+    let svg = errors_svg(&PlotInputs {
+        report: &report,
+        ..s.inputs()
+    });
+    let group = &svg[svg
+        .find(r#"<g id="injected-faults">"#)
+        .expect("the faults' group")..];
+    let group = &group[..group.find("</g>").unwrap()];
+    assert_eq!(
+        group.matches("<rect").count(),
+        2,
+        "the one past the run is left out"
+    );
+    assert!(svg.contains("injected fault window (3)"));
+    // Dark ticks at the foot of the position panel: 2 s of an 800 px wide
+    // 40 s panel is 40 px, 7 px tall (x2 when rendered).
+    const FAULT: [u8; 3] = [0x37, 0x47, 0x4f];
+    let pic = render(&svg);
+    let n = pic.count_in(FAULT, "pos");
+    assert!(n > 400, "{n} fault pixels");
+    assert_eq!(render(&errors_svg(&s.inputs())).count_in(FAULT, "pos"), 0);
+}

@@ -8,7 +8,8 @@
 //! largest error in the legend. The
 //! markers of the top view are here over time: slip, stuck and lift
 //! episodes as bands, cable and strip crossings as lines, the estimator's
-//! events along the top.
+//! events along the top; and the windows of the faults `simulate --faults`
+//! or `--chaos` injected, as dark ticks along the position panel's foot.
 
 use super::axes::{Frame, Range, nice_step, points};
 use super::markers::{self, LEGEND_LINE, Mark, SLIP_COLOUR, Swatch, legend_row};
@@ -28,6 +29,46 @@ const LEGEND_X: f64 = 900.0;
 const PAGE_W: f64 = 1200.0;
 /// Points drawn per trace at most (evenly thinned beyond).
 const MAX_POINTS: usize = 3000;
+
+/// Colour of an injected fault's window along the position panel's foot.
+pub const FAULT_COLOUR: &str = "#37474f";
+
+/// `(start, end)` seconds of every fault `simulate --faults` or `--chaos`
+/// injected (`report.json` `faults.faults`), a count fault at least 0.1 s.
+fn injected_faults(report: &serde_json::Value) -> Vec<(f64, f64)> {
+    report["faults"]["faults"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|f| {
+            let a = f["start_s"].as_f64()?;
+            let b = f["window_end_s"].as_f64()?;
+            (a.is_finite() && b.is_finite()).then_some((a, b.max(a + 0.1)))
+        })
+        .collect()
+}
+
+/// The injected faults as dark ticks along the foot of `panel`, inside it.
+fn injected_faults_svg(s: &mut String, panel: &Frame, faults: &[(f64, f64)]) {
+    if faults.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, r#"<g id="injected-faults">"#);
+    for (a, b) in faults {
+        let (x0, x1) = (panel.px(*a), panel.px(*b));
+        if x1 < panel.left || x0 > panel.left + panel.width {
+            continue;
+        }
+        let x0 = x0.max(panel.left);
+        let _ = writeln!(
+            s,
+            r#"<rect x="{x0:.1}" y="{:.1}" width="{:.1}" height="7" fill="{FAULT_COLOUR}"/>"#,
+            panel.top + panel.height - 8.0,
+            (x1.min(panel.left + panel.width) - x0).max(2.0)
+        );
+    }
+    let _ = writeln!(s, "</g>");
+}
 
 /// Colour of a stuck episode's band.
 const STUCK_COLOUR: &str = "#b71c1c";
@@ -162,6 +203,7 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
         .map(|sc| markers::crossings(sc, &truth))
         .unwrap_or_default();
     let events = markers::events(&estimator_events(i.report), &truth);
+    let faults = injected_faults(i.report);
 
     let mut exits: Vec<(String, &'static str, f64, f64)> = Vec::new();
     for (n, (panel, id, title)) in [
@@ -255,6 +297,7 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
             for m in &events {
                 m.mark.svg(&mut s, panel.px(m.t), panel.top - 9.0);
             }
+            injected_faults_svg(&mut s, panel, &faults);
         }
     }
     for (_, c, x, y) in &exits {
@@ -322,6 +365,13 @@ pub fn errors_svg(i: &PlotInputs<'_>) -> String {
                 &format!("{} ({n})", kind.name()),
             );
         }
+    }
+    if !faults.is_empty() {
+        row(
+            &mut s,
+            Swatch::Fill(FAULT_COLOUR),
+            &format!("injected fault window ({})", faults.len()),
+        );
     }
     let height = (bottom_panel.top + PANEL_H + 50.0).max(legend_y + 20.0);
     s.push_str("</svg>\n");
