@@ -5,6 +5,7 @@
 
 use crate::asl::GroundTruth;
 use crate::tum::TumPose;
+use traction::vslam_core::Timestamp;
 
 /// A planar pose: time (seconds), position (metres), yaw (radians).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,17 +31,22 @@ pub fn yaw_of(w: f64, x: f64, y: f64, z: f64) -> f64 {
     (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
 }
 
+/// The planar pose at `t` of position `p` and attitude `w, x, y, z`.
+fn planar(t: Timestamp, p: &[f64; 3], [w, x, y, z]: [f64; 4]) -> Planar {
+    Planar {
+        t: t.0 as f64 * 1e-9,
+        x: p[0],
+        y: p[1],
+        yaw: yaw_of(w, x, y, z),
+    }
+}
+
 /// An estimate's poses (finite ones only).
 pub fn from_tum(v: &[TumPose]) -> Vec<Planar> {
     v.iter()
-        .map(|p| {
-            let [x, y, z, w] = p.q_xyzw;
-            Planar {
-                t: p.t.0 as f64 * 1e-9,
-                x: p.p[0],
-                y: p.p[1],
-                yaw: yaw_of(w, x, y, z),
-            }
+        .map(|e| {
+            let [x, y, z, w] = e.q_xyzw;
+            planar(e.t, &e.p, [w, x, y, z])
         })
         .filter(Planar::finite)
         .collect()
@@ -49,15 +55,7 @@ pub fn from_tum(v: &[TumPose]) -> Vec<Planar> {
 /// The truth's poses (finite ones only).
 pub fn from_truth(v: &[GroundTruth]) -> Vec<Planar> {
     v.iter()
-        .map(|g| {
-            let [w, x, y, z] = g.q_wxyz;
-            Planar {
-                t: g.t.0 as f64 * 1e-9,
-                x: g.p[0],
-                y: g.p[1],
-                yaw: yaw_of(w, x, y, z),
-            }
-        })
+        .map(|g| planar(g.t, &g.p, g.q_wxyz))
         .filter(Planar::finite)
         .collect()
 }

@@ -76,8 +76,13 @@ pub struct Health {
 
 impl Health {
     fn check(&mut self, ekf: &traction::ego_ekf::EgoEkf, t: Timestamp) {
+        self.noting_first_failure(t, |h| h.check_filter(ekf));
+    }
+
+    /// Runs `check` and keeps `t` as the first failing step if it is one.
+    fn noting_first_failure(&mut self, t: Timestamp, check: impl FnOnce(&mut Health)) {
         let before = *self;
-        self.check_filter(ekf);
+        check(self);
         if self.first_failed_ns.is_none() && !self.same_failures(&before) {
             self.first_failed_ns = Some(t.0);
         }
@@ -141,11 +146,7 @@ impl Health {
         logged: &traction::vslam_core::PerStream<u32>,
         t: Timestamp,
     ) {
-        let before = *self;
-        self.count_checks(now, last, logged);
-        if self.first_failed_ns.is_none() && !self.same_failures(&before) {
-            self.first_failed_ns = Some(t.0);
-        }
+        self.noting_first_failure(t, |h| h.count_checks(now, last, logged));
     }
 
     fn count_checks(

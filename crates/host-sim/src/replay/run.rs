@@ -5,11 +5,11 @@
 use super::config::{estimator_config, frontend_config, sensor_yaml};
 use super::report::{decision_json, report_json};
 use super::{Feed, Health, Outcomes, ReplayOptions, ReplayOutput};
-use crate::asl::{Dataset, GroundTruth};
+use crate::asl::{Dataset, GroundTruth, ImageEntry};
 use crate::error::CliError;
 use crate::faults::{FailedRead, Stream};
 use crate::metrics::trajectory_error;
-use crate::pngio::load_gray;
+use crate::pngio::{GrayImage, load_gray};
 use crate::progress::Progress;
 use crate::tum::TumPose;
 use serde_json::{Value, json};
@@ -48,6 +48,15 @@ fn pose(t: Timestamp, p: Vec3, q: &Quat) -> TumPose {
         t,
         p: [p.x as f64, p.y as f64, p.z as f64],
         q_xyzw: [q.i as f64, q.j as f64, q.k as f64, q.w as f64],
+    }
+}
+
+/// Image `k` of a stream's images, loaded, with its path; `None` when the
+/// stream or the image is absent.
+fn image(entries: Option<&[ImageEntry]>, k: usize) -> Result<Option<(GrayImage, &Path)>, CliError> {
+    match entries.and_then(|v| v.get(k)) {
+        Some(e) => Ok(Some((load_gray(&e.path)?, e.path.as_path()))),
+        None => Ok(None),
     }
 }
 
@@ -240,16 +249,12 @@ impl Collected {
         k: usize,
     ) -> Result<(), CliError> {
         self.drain_until(est, t);
-        let Some((_, frames)) = &ds.cam else {
+        let Some((img, path)) = image(ds.cam.as_ref().map(|(_, v)| v.as_slice()), k)? else {
             return Ok(());
         };
-        let Some(entry) = frames.get(k) else {
-            return Ok(());
-        };
-        let img = load_gray(&entry.path)?;
         let view = img
             .view()
-            .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
+            .map_err(|e| CliError::file(path, e.to_string()))?;
         let outcome = est.process_camera(t, &view);
         self.camera_frames += 1;
         self.log((
@@ -284,15 +289,11 @@ impl Collected {
         k: usize,
     ) -> Result<(), CliError> {
         self.drain_until(est, t);
-        let Some((_, maps)) = &ds.seg else {
+        let Some((img, path)) = image(ds.seg.as_ref().map(|(_, v)| v.as_slice()), k)? else {
             return Ok(());
         };
-        let Some(entry) = maps.get(k) else {
-            return Ok(());
-        };
-        let img = load_gray(&entry.path)?;
         let labels = LabelView::new(&img.data, img.width, img.height, img.width)
-            .map_err(|e| CliError::file(&entry.path, e.to_string()))?;
+            .map_err(|e| CliError::file(path, e.to_string()))?;
         let outcome = est.process_segmentation(t, &labels);
         self.log((Stream::Segmentation, t, outcome_name(&outcome)));
         let state = est.surface().map(|s| s.state_at(t));
