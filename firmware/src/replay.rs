@@ -469,6 +469,7 @@ impl Summary {
         f("ekf.wheel_counts", e.wheel_counts());
         f("ekf.flow_counts", e.flow_counts());
         f("ekf.zupt_counts", e.zupt_counts());
+        f("ekf.floor_counts", e.floor_counts());
         for (name, kind) in [
             ("scale.wheel_counts", SensorKind::Wheel),
             ("scale.flow_counts", SensorKind::Flow),

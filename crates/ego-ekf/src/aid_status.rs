@@ -13,11 +13,14 @@
 //!   gate says; see [`crate::wheel::model`]);
 //! - optical flow, [`FlowStatus`]: the robot-origin horizontal velocity;
 //! - zero-velocity update, [`ZuptStatus`]: velocity, position against the
-//!   clone, attitude against the clone (see [`crate::zupt::model`]).
+//!   clone, attitude against the clone (see [`crate::zupt::model`]);
+//! - floor constraint, [`FloorStatus`]: the robot origin's height over the
+//!   floor plane and its vertical velocity, world frame (see
+//!   [`crate::floor::model`]).
 //!
 //! The filter keeps the latest record of each aid
 //! ([`crate::EgoEkf::wheel_status`], [`crate::EgoEkf::flow_status`],
-//! [`crate::EgoEkf::zupt_status`]). The records only report: nothing in the
+//! [`crate::EgoEkf::zupt_status`], [`crate::EgoEkf::floor_status`]). The records only report: nothing in the
 //! filter reads them back.
 
 use nalgebra::{SMatrix, SVector};
@@ -101,6 +104,10 @@ pub type FlowStatus = AidStatus<2>;
 /// The zero-velocity update's status: velocity (m/s), position against the
 /// clone (m), attitude against the clone (rad), world frame.
 pub type ZuptStatus = AidStatus<9>;
+/// The floor constraint's status: the robot origin's height (m; the
+/// observation is the floor plane's height) and vertical velocity (m/s),
+/// world frame.
+pub type FloorStatus = AidStatus<2>;
 
 impl<const N: usize> AidStatus<N> {
     /// The record of a sample taken at `t` with `outcome`, numeric fields

@@ -113,6 +113,50 @@ impl Default for ZuptConfig {
     }
 }
 
+/// The floor constraint ([`crate::floor`]): the robot origin stays on the
+/// floor plane and does not climb faster than a gentle slope allows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FloorConfig {
+    /// A floor update every this many IMU steps.
+    pub every: u16,
+    /// Noise of the height row, m: the floor's unevenness.
+    pub height_std: f32,
+    /// Innovations of the height row beyond this many standard deviations
+    /// have their noise raised until they are at this many (a Huber-type
+    /// weight): a bump pulls little, a drifted height is still pulled back.
+    pub height_huber: f32,
+    /// Noise of the vertical-velocity row on level ground, m/s.
+    pub vertical_velocity_std: f32,
+    /// Steepest floor allowed for, rise over run: adds `max_slope` times the
+    /// horizontal speed to the vertical-velocity noise.
+    pub max_slope: f32,
+    /// Chi-square gate (1 degree of freedom) of the vertical-velocity row:
+    /// a cable or strip under a wheel fails it.
+    pub climb_gate: f32,
+    /// A height this far from the floor, m, is another level (lifted, a
+    /// ramp, a step) once it lasts [`FloorConfig::reanchor_after`] updates.
+    pub level_change: f32,
+    /// Updates in a row beyond [`FloorConfig::level_change`] after which the
+    /// floor is re-anchored at the robot's height.
+    pub reanchor_after: u16,
+}
+
+impl Default for FloorConfig {
+    fn default() -> Self {
+        FloorConfig {
+            every: 25,
+            height_std: 0.005,
+            height_huber: 3.0,
+            vertical_velocity_std: 0.01,
+            max_slope: 0.05,
+            // chi-square, 1 degree of freedom, 99.9 %.
+            climb_gate: 10.83,
+            level_change: 0.05,
+            reanchor_after: 100,
+        }
+    }
+}
+
 /// Initialisation from the first still IMU samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InitConfig {
@@ -366,6 +410,9 @@ pub struct FilterConfig {
     pub zupt: ZuptConfig,
     /// The flow sensor, if the robot has one.
     pub flow: Option<FlowConfig>,
+    /// The floor constraint, if the robot drives on a floor (`None`: the
+    /// vertical position is left to the other aids).
+    pub floor: Option<FloorConfig>,
     /// Grip before the surface model says otherwise.
     pub grip: GripParams,
     /// Magnitude of gravity, m/s^2.
@@ -383,6 +430,7 @@ impl Default for FilterConfig {
             init: InitConfig::default(),
             zupt: ZuptConfig::default(),
             flow: None,
+            floor: Some(FloorConfig::default()),
             grip: GripParams::default(),
             gravity: crate::state::STANDARD_GRAVITY,
         }
@@ -482,6 +530,22 @@ impl FilterConfig {
         let flow_noise = self
             .flow
             .map_or([1.0; 3], |f| [f.base_std, f.relative_std, f.gate]);
+        let floor_noise = self.floor.map_or([1.0; 6], |f| {
+            [
+                f.height_std,
+                f.height_huber,
+                f.vertical_velocity_std,
+                f.max_slope,
+                f.climb_gate,
+                f.level_change,
+            ]
+        });
+        if self
+            .floor
+            .is_some_and(|f| f.every == 0 || f.reanchor_after == 0)
+        {
+            return Err(ConfigError::BadLimit);
+        }
         if self
             .flow
             .is_some_and(|f| f.max_dt_ns == 0 || f.max_age_ns == 0 || f.window_ns == 0)
@@ -490,7 +554,13 @@ impl FilterConfig {
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
         let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
-        if !noise.iter().chain(flow_noise.iter()).all(|v| positive(*v)) || !min_grip_ok {
+        if !noise
+            .iter()
+            .chain(flow_noise.iter())
+            .chain(floor_noise.iter())
+            .all(|v| positive(*v))
+            || !min_grip_ok
+        {
             return Err(ConfigError::BadNoise);
         }
         let vectors_finite = [&r.p_bl, &r.p_br]

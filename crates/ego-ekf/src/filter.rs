@@ -8,6 +8,7 @@ use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
 use crate::config::{ConfigError, FilterConfig};
 use crate::covariance;
+use crate::floor::FloorFusion;
 use crate::flow::{FlowFused, FlowFusion};
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
@@ -118,6 +119,7 @@ pub struct EgoEkf {
     last_step: Option<ImuStep>,
     still: StillDetector,
     zupt: ZuptFusion,
+    floor: FloorFusion,
     wheel: WheelFusion,
     flow: FlowFusion,
     recovery: RecoveryCounts,
@@ -178,6 +180,7 @@ impl EgoEkf {
             last_step: None,
             still: StillDetector::new(),
             zupt: ZuptFusion::new(),
+            floor: FloorFusion::new(),
             wheel: WheelFusion::new(
                 config.wheel.max_dt_ns,
                 config.wheel.max_age_ns,
@@ -242,6 +245,7 @@ impl EgoEkf {
         self.initialiser.restart();
         self.still = StillDetector::new();
         self.zupt = ZuptFusion::new();
+        self.floor.anchor(&self.x);
         self.initialised = true;
     }
 
@@ -331,6 +335,17 @@ impl EgoEkf {
             self.clone_due = true;
         } else if self.still.update_due(&zc) {
             let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
+        }
+        if let Some(fc) = &self.config.floor {
+            let wheels_agree = self.wheel.watch().run().is_empty();
+            let _ = self.floor.step(
+                &mut self.x,
+                &mut self.p,
+                &gyro,
+                fc,
+                sample.t(),
+                wheels_agree,
+            );
         }
         Ok(ImuStep {
             t: sample.t(),

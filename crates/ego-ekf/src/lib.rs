@@ -11,7 +11,7 @@
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
 //!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
-//! - [`wheel`], [`flow`], [`zupt`]: one module per measurement, *when to
+//! - [`wheel`], [`flow`], [`zupt`], [`floor`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*; [`aid_status`]: the one status record
 //!   each of them leaves (PX4 EKF2 `estimator_aid_source` style);
 //! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
@@ -64,6 +64,7 @@ pub mod config;
 pub mod covariance;
 pub mod events;
 pub mod filter;
+pub mod floor;
 pub mod flow;
 pub mod gap;
 pub mod grip;
@@ -78,9 +79,9 @@ pub mod update;
 pub mod wheel;
 pub mod zupt;
 
-pub use aid_status::{AidOutcome, AidStatus, FlowStatus, WheelStatus, ZuptStatus};
+pub use aid_status::{AidOutcome, AidStatus, FloorStatus, FlowStatus, WheelStatus, ZuptStatus};
 pub use config::{
-    ConfigError, FilterConfig, FlowConfig, GapConfig, ImuConfig, ImuNoise, InitConfig,
+    ConfigError, FilterConfig, FloorConfig, FlowConfig, GapConfig, ImuConfig, ImuNoise, InitConfig,
     RecoveryConfig, RobotPrior, WheelConfig, ZuptConfig,
 };
 pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};

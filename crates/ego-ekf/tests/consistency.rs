@@ -24,8 +24,16 @@ fn config() -> FilterConfig {
     // lateral constraint is exact in the simulation, its noise small. (With
     // the measured rates in the radius Jacobian the radii are biased low
     // and this test fails: position ANEES 48, velocity 15.)
+    //
+    // The floor constraint is off: the simulated floor is exactly flat and
+    // the start height has an error drawn from the prior, while the
+    // constraint models a real floor's unevenness (5 mm, 1 cm/s) around the
+    // start height. With it on, the position ANEES is 3.27 but 57/60 inside
+    // and the velocity ANEES 2.32 (38/60): the vertical errors are far
+    // below the variances the unevenness allows.
     FilterConfig {
         grip: GripParams::new(0.95, 0.005, 0.001, 10.83, 2.0).unwrap(),
+        floor: None,
         ..FilterConfig::default()
     }
 }

@@ -2,7 +2,8 @@
 //! functions (perturbing the nominal state through the filter's own error
 //! injection, so the local rotation conventions are checked too).
 
-use ego_ekf::config::{FlowConfig, ZuptConfig};
+use ego_ekf::config::{FloorConfig, FlowConfig, ZuptConfig};
+use ego_ekf::floor::model::floor_measurement;
 use ego_ekf::flow::model::flow_measurement;
 use ego_ekf::grip::GripParams;
 use ego_ekf::state::{DIM, ErrorState, NominalState, Quat, Vec3};
@@ -96,6 +97,19 @@ fn flow_jacobian_matches_finite_differences() {
 fn zupt_jacobian_matches_finite_differences() {
     let c = ZuptConfig::default();
     check(|x| zupt_measurement(x, &c), SVector::zeros());
+}
+
+#[test]
+fn floor_jacobian_matches_finite_differences() {
+    // A fast turn, so the lever-arm columns (gyro bias, contact points,
+    // attitude through w x c) are far from zero.
+    let raw = Vec3::new(0.3, -0.2, 1.5);
+    let c = FloorConfig::default();
+    let floor = 0.02;
+    check(
+        |x| floor_measurement(x, &(raw - x.gyro_bias), floor, &c),
+        SVector::<f32, 2>::new(floor, 0.0),
+    );
 }
 
 #[test]

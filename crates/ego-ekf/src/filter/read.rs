@@ -6,8 +6,9 @@ use vslam_core::kinematics::add_lever_arm;
 use vslam_core::{SampleCounts, Timestamp};
 
 use super::{EgoEkf, GapCounts, ImuStep};
-use crate::aid_status::{FlowStatus, WheelStatus, ZuptStatus};
+use crate::aid_status::{FloorStatus, FlowStatus, WheelStatus, ZuptStatus};
 use crate::config::FilterConfig;
+use crate::floor::FloorFusion;
 use crate::grip::GripParams;
 use crate::recovery::RecoveryCounts;
 use crate::state::{
@@ -168,6 +169,22 @@ impl EgoEkf {
     /// The zero-velocity update's status after the latest update.
     pub fn zupt_status(&self) -> Option<&ZuptStatus> {
         self.zupt.status()
+    }
+
+    /// The floor constraint: its plane's height, counts, re-anchorings,
+    /// suspensions and latest status (see [`crate::floor`]).
+    pub fn floor(&self) -> &FloorFusion {
+        &self.floor
+    }
+
+    /// The status after the latest floor update.
+    pub fn floor_status(&self) -> Option<&FloorStatus> {
+        self.floor.status()
+    }
+
+    /// Floor updates fused, gated and rejected by reason.
+    pub fn floor_counts(&self) -> &SampleCounts {
+        self.floor.counts()
     }
 
     /// IMU samples propagated and rejected by reason.
