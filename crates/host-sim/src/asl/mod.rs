@@ -12,11 +12,15 @@
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
+//! Beside `mav0/`, an optional `labels.yaml` ([`Labels`]) says where the
+//! data came from and what it lacks.
 
-mod csvio;
+pub(crate) mod csvio;
+mod labels;
 mod meta;
 mod yaml;
 
+pub use labels::{LABELS_FILE, Labels};
 pub use meta::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta};
 
 use crate::error::CliError;
@@ -76,6 +80,8 @@ pub struct Dataset {
     pub seg: Option<(SegMeta, Vec<ImageEntry>)>,
     /// Ground truth, when recorded.
     pub groundtruth: Option<Vec<GroundTruth>>,
+    /// `labels.yaml`, when present.
+    pub labels: Option<Labels>,
 }
 
 impl Dataset {
@@ -195,6 +201,7 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         }
         ds.groundtruth = Some(v);
     }
+    ds.labels = Labels::read(root)?;
     Ok(ds)
 }
 
@@ -289,6 +296,9 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
                 format!("{},{}", g.t.0, nums.join(","))
             }),
         )?;
+    }
+    if let Some(l) = &ds.labels {
+        l.write(root)?;
     }
     Ok(())
 }
@@ -393,6 +403,7 @@ mod tests {
                 bias_gyro: [0.0; 3],
                 bias_accel: [0.0; 3],
             }]),
+            labels: None,
         }
     }
 

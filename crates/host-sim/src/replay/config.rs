@@ -104,14 +104,22 @@ pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, 
         },
     };
     let wheels = match &ds.wheel {
-        Some((m, _)) => Wheels {
-            radius_left: m.wheel_radius_left as f32,
-            radius_right: m.wheel_radius_right as f32,
-            track: m.wheel_base as f32,
-            track_factor: 1.0,
-            counts_per_revolution: m.ticks_per_revolution.round() as u32,
-            ..preset.wheels
-        },
+        Some((m, _)) => {
+            // The odometry counts whole ticks per revolution; a fractional
+            // resolution (a geared motor's encoder: 43.7 x 64 = 2796.8) is
+            // rounded and the radii scaled so that a tick is the same
+            // distance as before (exactly 1 for a whole resolution).
+            let counts = m.ticks_per_revolution.round().max(1.0);
+            let k = counts / m.ticks_per_revolution;
+            Wheels {
+                radius_left: (m.wheel_radius_left * k) as f32,
+                radius_right: (m.wheel_radius_right * k) as f32,
+                track: m.wheel_base as f32,
+                track_factor: 1.0,
+                counts_per_revolution: counts as u32,
+                ..preset.wheels
+            }
+        }
         None => preset.wheels,
     };
     let flow = match (&ds.flow, preset.flow) {

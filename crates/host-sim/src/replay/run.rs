@@ -375,7 +375,10 @@ pub(super) fn run(
 
     let wheels = ds.wheel.as_ref().map(|(_, v)| v.as_slice()).unwrap_or(&[]);
     let wheel_only = wheel_only(&config.odometry, wheels);
-    let report = report_json(&missing, &c, &est);
+    let mut report = report_json(&missing, &c, &est);
+    if let Some(l) = &ds.labels {
+        report["labels"] = l.to_json();
+    }
     let errors = match &ds.groundtruth {
         Some(gt) => errors(
             gt,

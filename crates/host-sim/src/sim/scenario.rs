@@ -383,6 +383,7 @@ pub fn generate_with(
             labels,
         )),
         groundtruth: Some(groundtruth(&truth, &biases, every(m.rate_hz))),
+        labels: None,
     };
     Ok((ds, truth, faults))
 }

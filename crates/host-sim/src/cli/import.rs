@@ -1,0 +1,69 @@
+//! `host-sim import FORMAT ...`: a recorded log into an ASL dataset folder
+//! that `host-sim replay` reads ([`crate::import`]).
+
+use crate::error::CliError;
+use crate::import;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+
+/// Arguments of `host-sim import`.
+#[derive(Debug, Args)]
+#[command(
+    about = "Import a recorded log (OptiOdom, BorealTC, ROS 1 bag) as an ASL dataset",
+    long_about = "Reads a log in its own format and writes an ASL dataset folder (mav0/...) that \
+                  `host-sim replay` reads, with labels.yaml saying where it came from and what it \
+                  lacks. Malformed input exits 2 naming the file and line; nothing is written then."
+)]
+pub struct ImportArgs {
+    /// The log's format.
+    #[command(subcommand)]
+    pub format: ImportFormat,
+}
+
+/// The formats `import` reads.
+#[derive(Debug, Subcommand)]
+pub enum ImportFormat {
+    /// OptiOdom run: per-cycle encoder ticks and OptiTrack ground truth of a
+    /// differential drive, geometry from the session's metadata file.
+    Optiodom {
+        /// The run file, `<id>_run-NN.csv`.
+        run: PathBuf,
+        /// The metadata file (default: `<id>_metadata.csv` beside the run).
+        #[arg(long, value_name = "FILE")]
+        metadata: Option<PathBuf>,
+        /// Output dataset folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// Runs `import`.
+pub fn run(a: ImportArgs) -> Result<(), CliError> {
+    let (ds, out) = match a.format {
+        ImportFormat::Optiodom { run, metadata, out } => {
+            (import::optiodom::read(&run, metadata.as_deref())?, out)
+        }
+    };
+    import::write_imported(&out, &ds)?;
+    let mut s = String::new();
+    outln!(s, "wrote {}", out.display());
+    let streams = [
+        ("imu0", ds.imu.as_ref().map(|x| x.1.len())),
+        ("wheel0", ds.wheel.as_ref().map(|x| x.1.len())),
+        (
+            "state_groundtruth_estimate0",
+            ds.groundtruth.as_ref().map(Vec::len),
+        ),
+    ];
+    for (name, n) in streams {
+        if let Some(n) = n {
+            outln!(s, "  {name}: {n} rows");
+        }
+    }
+    if let Some(l) = &ds.labels {
+        for line in l.summary().lines() {
+            outln!(s, "  {line}");
+        }
+    }
+    super::write_stdout(&s)
+}
