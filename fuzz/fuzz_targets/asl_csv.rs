@@ -67,10 +67,11 @@ fn write_meta(sensor: &str, path: &Path) {
         .write(path),
         "wheel0" => WheelMeta {
             rate_hz: 50.0,
-            ticks_per_revolution: 16384.0,
+            ticks_per_revolution: Some(16384.0),
             wheel_radius_left: 0.035,
             wheel_radius_right: 0.035,
             wheel_base: 0.23,
+            track_factor: 1.0,
             wheel_type: "soft_rubber".into(),
         }
         .write(path),

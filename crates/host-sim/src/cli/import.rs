@@ -35,6 +35,28 @@ pub enum ImportFormat {
         #[arg(long)]
         out: PathBuf,
     },
+    /// BorealTC sequence (Husky): IMU and wheel speeds, with the terrain label.
+    Borealtc {
+        /// The IMU file, `imu_NN.csv`.
+        imu: PathBuf,
+        /// The wheel-speed file, `pro_NN.csv`.
+        pro: PathBuf,
+        /// Output dataset folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Terrain label (default: the IMU file's folder name, e.g. ASPHALT).
+        #[arg(long)]
+        terrain: Option<String>,
+        /// Wheel radius, m (wheel speeds are divided by it).
+        #[arg(long, default_value_t = 0.13)]
+        wheel_radius: f64,
+        /// Physical track, m.
+        #[arg(long, default_value_t = 0.555)]
+        track: f64,
+        /// Effective track of the skid steer, m (turn rate = (vR - vL) / this).
+        #[arg(long, default_value_t = 1.0)]
+        effective_track: f64,
+    },
 }
 
 /// Runs `import`.
@@ -43,6 +65,25 @@ pub fn run(a: ImportArgs) -> Result<(), CliError> {
         ImportFormat::Optiodom { run, metadata, out } => {
             (import::optiodom::read(&run, metadata.as_deref())?, out)
         }
+        ImportFormat::Borealtc {
+            imu,
+            pro,
+            out,
+            terrain,
+            wheel_radius,
+            track,
+            effective_track,
+        } => {
+            let g = import::borealtc::HuskyGeometry {
+                wheel_radius,
+                track,
+                effective_track,
+            };
+            (
+                import::borealtc::read(&imu, &pro, terrain.as_deref(), g)?,
+                out,
+            )
+        }
     };
     import::write_imported(&out, &ds)?;
     let mut s = String::new();
@@ -50,6 +91,7 @@ pub fn run(a: ImportArgs) -> Result<(), CliError> {
     let streams = [
         ("imu0", ds.imu.as_ref().map(|x| x.1.len())),
         ("wheel0", ds.wheel.as_ref().map(|x| x.1.len())),
+        ("wheel0 (rates)", ds.wheel_rates.as_ref().map(|x| x.1.len())),
         (
             "state_groundtruth_estimate0",
             ds.groundtruth.as_ref().map(Vec::len),

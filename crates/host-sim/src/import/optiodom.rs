@@ -264,10 +264,11 @@ pub fn to_dataset(run: &Path, meta: &OptiOdomMeta, rows: &[RunRow]) -> Result<Da
         .ok_or_else(|| CliError::file(run, "a run needs at least two rows"))?;
     let wheel_meta = WheelMeta {
         rate_hz,
-        ticks_per_revolution: meta.ticks_per_revolution(),
+        ticks_per_revolution: Some(meta.ticks_per_revolution()),
         wheel_radius_left: 0.5 * meta.diameter_left,
         wheel_radius_right: 0.5 * meta.diameter_right,
         wheel_base: meta.track,
+        track_factor: 1.0,
         wheel_type: "unknown".into(),
     };
     let mut labels = Labels::default();
