@@ -57,6 +57,30 @@ pub enum ImportFormat {
         #[arg(long, default_value_t = 1.0)]
         effective_track: f64,
     },
+    /// ROS 1 bag (format 2.0, any compression): IMU, odometry twist as wheel
+    /// rates, GPS fixes as an ENU reference, static transforms for T_BS.
+    Rosbag {
+        /// The `.bag` file.
+        bag: PathBuf,
+        /// Output dataset folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// sensor_msgs/Imu topic (default: the bag's only one).
+        #[arg(long, value_name = "TOPIC")]
+        imu_topic: Option<String>,
+        /// nav_msgs/Odometry topic (default: the bag's only one).
+        #[arg(long, value_name = "TOPIC")]
+        odom_topic: Option<String>,
+        /// sensor_msgs/NavSatFix topic (default: the bag's only one).
+        #[arg(long, value_name = "TOPIC")]
+        gps_topic: Option<String>,
+        /// Wheel radius for the odometry's wheel rates, m (default: a Jackal's).
+        #[arg(long, default_value_t = 0.098)]
+        wheel_radius: f64,
+        /// Track for the odometry's wheel rates, m (default: a Jackal's).
+        #[arg(long, default_value_t = 0.37559)]
+        track: f64,
+    },
 }
 
 /// Runs `import`.
@@ -83,6 +107,24 @@ pub fn run(a: ImportArgs) -> Result<(), CliError> {
                 import::borealtc::read(&imu, &pro, terrain.as_deref(), g)?,
                 out,
             )
+        }
+        ImportFormat::Rosbag {
+            bag,
+            out,
+            imu_topic,
+            odom_topic,
+            gps_topic,
+            wheel_radius,
+            track,
+        } => {
+            let o = import::rosbag::BagOptions {
+                imu_topic,
+                odom_topic,
+                gps_topic,
+                wheel_radius,
+                track,
+            };
+            (import::rosbag::read(&bag, &o)?, out)
         }
     };
     import::write_imported(&out, &ds)?;

@@ -15,7 +15,10 @@
 //! `labels.yaml` ([`crate::asl::Labels`]) and printed by the replay.
 
 pub mod borealtc;
+pub mod enu;
 pub mod optiodom;
+pub mod ros_msg;
+pub mod rosbag;
 
 use crate::asl::{Dataset, write_dataset};
 use crate::error::CliError;
