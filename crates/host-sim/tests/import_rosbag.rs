@@ -124,3 +124,156 @@ fn bad_bags_and_topics_exit_2() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("not sensor_msgs/Imu"));
     assert!(!d.join("c").exists());
 }
+
+/// A minimal uncompressed bag (format 2.0): one chunk with the connection
+/// and message records, the connections again in the index section.
+/// `topics` are `(topic, type)`, `messages` are `(connection, stamp, bytes)`.
+fn write_bag(path: &Path, topics: &[(&str, &str)], messages: &[(u32, u64, Vec<u8>)]) {
+    fn field(name: &str, val: &[u8]) -> Vec<u8> {
+        let f = [name.as_bytes(), b"=", val].concat();
+        [(f.len() as u32).to_le_bytes().to_vec(), f].concat()
+    }
+    fn record(fields: &[Vec<u8>], data: &[u8]) -> Vec<u8> {
+        let h = fields.concat();
+        [
+            (h.len() as u32).to_le_bytes().to_vec(),
+            h,
+            (data.len() as u32).to_le_bytes().to_vec(),
+            data.to_vec(),
+        ]
+        .concat()
+    }
+    let conns: Vec<u8> = topics
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (topic, tp))| {
+            let data = [
+                field("topic", topic.as_bytes()),
+                field("type", tp.as_bytes()),
+                field("md5sum", &[b'0'; 32]),
+                field("message_definition", b""),
+            ]
+            .concat();
+            record(
+                &[
+                    field("op", &[7]),
+                    field("conn", &(i as u32).to_le_bytes()),
+                    field("topic", topic.as_bytes()),
+                ],
+                &data,
+            )
+        })
+        .collect();
+    let mut body = conns.clone();
+    for (c, t, bytes) in messages {
+        let time = [
+            ((t / 1_000_000_000) as u32).to_le_bytes(),
+            ((t % 1_000_000_000) as u32).to_le_bytes(),
+        ]
+        .concat();
+        body.extend(record(
+            &[
+                field("op", &[2]),
+                field("conn", &c.to_le_bytes()),
+                field("time", &time),
+            ],
+            bytes,
+        ));
+    }
+    let chunk = record(
+        &[
+            field("op", &[5]),
+            field("compression", b"none"),
+            field("size", &(body.len() as u32).to_le_bytes()),
+        ],
+        &body,
+    );
+    let header = |index_pos: u64| {
+        record(
+            &[
+                field("op", &[3]),
+                field("index_pos", &index_pos.to_le_bytes()),
+                field("conn_count", &(topics.len() as u32).to_le_bytes()),
+                field("chunk_count", &1u32.to_le_bytes()),
+            ],
+            b"    ",
+        )
+    };
+    let magic = b"#ROSBAG V2.0\n";
+    let index_pos = (magic.len() + header(0).len() + chunk.len()) as u64;
+    std::fs::write(
+        path,
+        [magic.to_vec(), header(index_pos), chunk, conns].concat(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn gps_fixes_become_an_enu_reference_and_tf_static_mounts_the_imu() {
+    use host_sim::import::ros_msg::encode;
+    let d = tmp("gps");
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    let mut messages = vec![(
+        3,
+        1_000_000_000,
+        encode::tf(
+            "base_link",
+            "imu_link",
+            [0.1, 0.0, 0.2],
+            [0.0, 0.0, half, half],
+        ),
+    )];
+    for k in 0..20u64 {
+        let t = 1_000_000_000 + k * 10_000_000;
+        messages.push((
+            0,
+            t,
+            encode::imu(t, "imu_link", [0.0; 3], [0.0, 0.0, 9.81], 1e-6),
+        ));
+        messages.push((
+            1,
+            t + 2_000_000,
+            encode::odometry(t + 2_000_000, "base_link", 0.5, 0.0),
+        ));
+        // North at 0.5 m/s: 1e-3 deg of latitude is about 111 m.
+        let lat = 46.78 + 0.5 * (k as f64 * 0.01) / 111_000.0;
+        messages.push((2, t, encode::navsatfix(t, lat, -71.27, 80.0)));
+    }
+    let bag = d.join("synthetic.bag");
+    write_bag(
+        &bag,
+        &[
+            ("/imu", "sensor_msgs/Imu"),
+            ("/odom", "nav_msgs/Odometry"),
+            ("/fix", "sensor_msgs/NavSatFix"),
+            ("/tf_static", "tf2_msgs/TFMessage"),
+        ],
+        &messages,
+    );
+    let out = import(&bag, &d.join("ds"), &[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let yaml = std::fs::read_to_string(d.join("ds/mav0/imu0/sensor.yaml")).unwrap();
+    // A quarter turn about z and the lever arm: row 1 is [0, -1, 0, 0.1].
+    assert!(
+        yaml.contains("0.000000000, -1.000000000, 0.000000000, 0.100000001,"),
+        "{yaml}"
+    );
+    let gt = rows(&d.join("ds/mav0/state_groundtruth_estimate0/data.csv"));
+    assert_eq!(gt.len(), 20);
+    let north = gt[19][2];
+    assert!(
+        (north - 0.095).abs() < 0.002 && gt[19][1].abs() < 1e-6,
+        "{:?}",
+        gt[19]
+    );
+    let labels = std::fs::read_to_string(d.join("ds/labels.yaml")).unwrap();
+    assert!(
+        labels.contains("reference: \"gps\"")
+            && labels.contains("/tf_static base_link -> imu_link"),
+        "{labels}"
+    );
+}
