@@ -98,9 +98,15 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
         println!("missing sensors: {}", r.report["missing_sensors"]);
     }
     if r.ekf.is_empty() && !r.wheel_only.is_empty() {
-        println!(
-            "note: the EKF gave no pose (it runs on the IMU); the wheel-only trajectory is the estimate"
-        );
+        let why = if r.report["missing_sensors"]
+            .as_array()
+            .is_some_and(|m| m.iter().any(|s| s == "imu0"))
+        {
+            "no IMU: the EKF does not run"
+        } else {
+            "the EKF never started (it starts on 50 still IMU samples)"
+        };
+        println!("note: {why}; the wheel-only trajectory is the estimate");
     }
     if let Some(labels) = r.report.get("labels") {
         for (k, v) in labels.as_object().into_iter().flatten() {
