@@ -8,8 +8,8 @@
 //!   scale pipeline keeps it for its slip checks, and the vertical
 //!   specific-force deviation goes to the jolt monitor with the context of
 //!   the current floor;
-//! - wheel counts: `wheel-odom` turns them into a body displacement and wheel
-//!   rates; the EKF fuses the rates with the floor's grip (forward gated,
+//! - wheel counts (or wheel angular rates, from a robot that reports those):
+//!   `wheel-odom` turns them into a body displacement and wheel rates; the EKF fuses the rates with the floor's grip (forward gated,
 //!   lateral and vertical always), the scale pipeline accumulates `Tw`, and
 //!   the forward innovation teaches the surface model its floors;
 //! - flow reports: the EKF fuses the velocity with quality as noise, the
@@ -29,7 +29,7 @@ use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
 use heapless::Deque;
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
-use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, WheelTicks};
+use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, WheelTicks};
 use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
@@ -200,6 +200,12 @@ impl<'b> Estimator<'b> {
         self.offer(Event::Wheel(s));
     }
 
+    /// Offers wheel angular rates (a robot that reports rates, not counts;
+    /// the wheel stream, fused like counts).
+    pub fn offer_wheel_rates(&mut self, s: RawWheelRates) {
+        self.offer(Event::WheelRates(s));
+    }
+
     /// Offers a flow report.
     pub fn offer_flow(&mut self, s: FlowSample) {
         self.offer(Event::Flow(s));
@@ -320,10 +326,12 @@ impl<'b> Estimator<'b> {
                 outcome: Err(reason),
                 jolt: None,
             },
-            Event::Wheel(s) => Processed::Wheel {
-                t: s.t,
-                outcome: Err(reason),
-            },
+            Event::Wheel(WheelTicks { t, .. }) | Event::WheelRates(RawWheelRates { t, .. }) => {
+                Processed::Wheel {
+                    t,
+                    outcome: Err(reason),
+                }
+            }
             Event::Flow(s) => Processed::Flow {
                 t: s.t,
                 outcome: Err(reason),
@@ -334,7 +342,14 @@ impl<'b> Estimator<'b> {
     fn process(&mut self, event: Event) -> Processed {
         match event {
             Event::Imu(raw) => self.process_imu(&raw),
-            Event::Wheel(ticks) => self.process_wheel(&ticks),
+            Event::Wheel(ticks) => {
+                let step = self.odometry.update(ticks);
+                self.process_wheel(ticks.t, step)
+            }
+            Event::WheelRates(rates) => {
+                let step = self.odometry.update_rates(rates);
+                self.process_wheel(rates.t, step)
+            }
             Event::Flow(s) => self.process_flow(&s),
         }
     }
@@ -365,19 +380,25 @@ impl<'b> Estimator<'b> {
         }
     }
 
-    fn process_wheel(&mut self, ticks: &WheelTicks) -> Processed {
-        let outcome = match self.odometry.update(*ticks) {
+    /// The odometry's `step` of a wheel sample taken at `t` into the scale
+    /// pipeline, the EKF and the surface model.
+    fn process_wheel(
+        &mut self,
+        t: Timestamp,
+        step: Result<Option<wheel_odom::odometry::OdometryStep>, Reject>,
+    ) -> Processed {
+        let outcome = match step {
             Err(r) => Err(r),
             // The first sample only anchors the counts.
             Ok(None) => Err(Reject::NotReady),
             Ok(Some(step)) => {
                 let _ = self.scale.push_wheel(&step.delta);
                 if let Some(s) = &self.surface {
-                    self.ekf.set_grip(s.grip_params(ticks.t));
+                    self.ekf.set_grip(s.grip_params(t));
                 }
                 let fused = self.ekf.fuse_wheel(&step.rates);
                 if let (Ok(inn), Some(s)) = (&fused, self.surface.as_mut()) {
-                    let _ = s.on_wheel_innovation(ticks.t, inn.forward, inn.forward_var, inn.gated);
+                    let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, inn.gated);
                 }
                 fused
             }
@@ -388,10 +409,7 @@ impl<'b> Estimator<'b> {
             Ok(_) => Ok(()),
             Err(r) => Err(*r),
         });
-        Processed::Wheel {
-            t: ticks.t,
-            outcome,
-        }
+        Processed::Wheel { t, outcome }
     }
 
     fn process_flow(&mut self, s: &FlowSample) -> Processed {

@@ -12,7 +12,7 @@
 
 use core::cmp::Ordering;
 use heapless::binary_heap::{BinaryHeap, Min};
-use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+use vslam_core::sensors::{FlowSample, RawImuSample, RawWheelRates, WheelTicks};
 use vslam_core::{Reject, Stream, Timestamp};
 
 /// A sample of one of the buffered streams (see [`Event::stream`]).
@@ -22,6 +22,9 @@ pub enum Event {
     Imu(RawImuSample),
     /// Cumulative wheel encoder counts.
     Wheel(WheelTicks),
+    /// Wheel angular rates, from a robot that reports rates instead of
+    /// counts (the wheel stream all the same).
+    WheelRates(RawWheelRates),
     /// An optical-flow report.
     Flow(FlowSample),
 }
@@ -32,6 +35,7 @@ impl Event {
         match self {
             Event::Imu(s) => s.t,
             Event::Wheel(s) => s.t,
+            Event::WheelRates(s) => s.t,
             Event::Flow(s) => s.t,
         }
     }
@@ -40,7 +44,7 @@ impl Event {
     pub const fn stream(&self) -> Stream {
         match self {
             Event::Imu(_) => Stream::Imu,
-            Event::Wheel(_) => Stream::Wheel,
+            Event::Wheel(_) | Event::WheelRates(_) => Stream::Wheel,
             Event::Flow(_) => Stream::Flow,
         }
     }

@@ -1,6 +1,7 @@
 //! ASL `data.csv` reading through `host_sim::asl::read_dataset`: the first
 //! byte picks the sensor folder (IMU, wheels, flow, camera, segmentation,
-//! ground truth), the rest is that folder's `data.csv`; the `sensor.yaml`
+//! ground truth), the rest is that folder's `data.csv` (for `wheel0`,
+//! counts or, after the rates header, the wheel angular-rate variant); the `sensor.yaml`
 //! next to it is valid. A read either gives strictly increasing time stamps
 //! and finite values, or an exit-2 error that names the file.
 #![no_main]
@@ -67,10 +68,11 @@ fn write_meta(sensor: &str, path: &Path) {
         .write(path),
         "wheel0" => WheelMeta {
             rate_hz: 50.0,
-            ticks_per_revolution: 16384.0,
+            ticks_per_revolution: Some(16384.0),
             wheel_radius_left: 0.035,
             wheel_radius_right: 0.035,
             wheel_base: 0.23,
+            track_factor: 1.0,
             wheel_type: "soft_rubber".into(),
         }
         .write(path),
@@ -120,6 +122,10 @@ fuzz_target!(|data: &[u8]| {
             }
             if let Some((_, v)) = &ds.wheel {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
+            }
+            if let Some((_, v)) = &ds.wheel_rates {
+                assert!(increasing(v.iter().map(|s| s.t.0)));
+                assert!(v.iter().all(|s| s.left.is_finite() && s.right.is_finite()));
             }
             if let Some((_, v)) = &ds.flow {
                 assert!(increasing(v.iter().map(|s| s.t.0)));

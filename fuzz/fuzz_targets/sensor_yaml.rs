@@ -27,7 +27,8 @@ fuzz_target!(|data: &[u8]| {
             assert!(m.t_bs.iter().all(|x| x.is_finite()));
         }),
         1 => WheelMeta::read(&path).map(|m| {
-            assert!(positive(m.rate_hz) && positive(m.ticks_per_revolution));
+            assert!(positive(m.rate_hz) && m.ticks_per_revolution.is_none_or(positive));
+            assert!(positive(m.track_factor));
             assert!(positive(m.wheel_radius_left) && positive(m.wheel_radius_right));
             assert!(positive(m.wheel_base));
         }),

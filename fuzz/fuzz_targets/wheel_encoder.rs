@@ -1,13 +1,15 @@
 //! AS5047P: 16-bit frames, parity and error-flag handling, the pipelined
 //! angle + diagnostics read, and the wrapping counter's extension to `i64`;
-//! then differential-drive odometry on the counts. Bus answers and failures
-//! come from the fuzzer.
+//! then differential-drive odometry on the counts, and on wheel angular
+//! rates (the `wheel0` rates variant's path) read from the same bytes as
+//! `(ms step, left f32, right f32)`. Bus answers and failures come from the
+//! fuzzer.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use traction_fuzz::ScriptedSpi;
 use vslam_core::Timestamp;
-use vslam_core::sensors::WheelTicks;
+use vslam_core::sensors::{RawWheelRates, WheelTicks};
 use wheel_odom::as5047p::{As5047p, As5047pError, has_even_parity, read_command, with_even_parity};
 use wheel_odom::counter::{CounterError, CounterExtender};
 use wheel_odom::encoder::{As5047pEncoder, CumulativeEncoder, EncoderError, Polarity};
@@ -114,4 +116,23 @@ fuzz_target!(|input: &[u8]| {
             assert!(step.delta.dyaw.is_finite());
         }
     }
+
+    // Odometry on wheel rates: every accepted step finite, its rates those
+    // given and within the rim speed; every sample counted once.
+    let mut odo = DiffDriveOdometry::new(params);
+    let mut t = 0u64;
+    let mut n = 0u32;
+    for w in input.chunks_exact(10) {
+        t += u64::from(u16::from_le_bytes([w[0], w[1]])) * 1_000_000;
+        let left = f32::from_le_bytes([w[2], w[3], w[4], w[5]]);
+        let right = f32::from_le_bytes([w[6], w[7], w[8], w[9]]);
+        n += 1;
+        if let Ok(Some(step)) = odo.update_rates(RawWheelRates { t: Timestamp(t), left, right }) {
+            assert!(step.delta.translation.iter().all(|v| v.is_finite()));
+            assert!(step.delta.dyaw.is_finite() && step.delta.path_length.is_finite());
+            assert_eq!((step.rates.left(), step.rates.right()), (left, right));
+            assert!((0.0351 * left.abs()).max(0.035 * right.abs()) <= 3.0 * 1.0001);
+        }
+    }
+    assert_eq!(odo.counts().seen(), n);
 });

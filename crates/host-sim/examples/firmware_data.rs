@@ -144,7 +144,10 @@ fn sample_data() -> Result<(Vec<u8>, Vec<u8>), Box<dyn std::error::Error>> {
             imu_meta.accelerometer_random_walk as f32,
             imu_meta.gyroscope_random_walk as f32,
         ],
-        ticks_per_revolution: wheel_meta.ticks_per_revolution.round() as u32,
+        ticks_per_revolution: wheel_meta
+            .ticks_per_revolution
+            .ok_or("no encoder resolution")?
+            .round() as u32,
         wheel_radius: [
             wheel_meta.wheel_radius_left as f32,
             wheel_meta.wheel_radius_right as f32,

@@ -36,6 +36,7 @@ pub mod chips;
 pub mod cli;
 pub mod error;
 pub mod faults;
+pub mod import;
 pub mod matches;
 pub mod metrics;
 pub mod plot;

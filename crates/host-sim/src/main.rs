@@ -20,6 +20,7 @@ struct Cli {
 enum Command {
     Simulate(cli::run::SimulateArgs),
     Replay(cli::run::ReplayArgs),
+    Import(cli::import::ImportArgs),
     Track(cli::track::TrackArgs),
     Homography(cli::homography::HomographyArgs),
 }
@@ -29,6 +30,7 @@ fn main() -> ExitCode {
     let result = match args.command {
         Command::Simulate(a) => cli::run::run_simulate_cmd(a),
         Command::Replay(a) => cli::run::run_replay_cmd(a),
+        Command::Import(a) => cli::import::run(a),
         Command::Track(a) => cli::track::run(a),
         Command::Homography(a) => cli::homography::run(a),
     };

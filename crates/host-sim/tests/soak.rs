@@ -384,7 +384,7 @@ fn one_hour_at_250_hz() {
             }
             fed[match e {
                 Event::Imu(_) => 0,
-                Event::Wheel(_) => 1,
+                Event::Wheel(_) | Event::WheelRates(_) => 1,
                 Event::Flow(_) => 2,
             }] += 1;
             est.offer(e);

@@ -164,6 +164,21 @@ impl FlowSample {
     }
 }
 
+/// Wheel angular rates as a robot reports them instead of encoder counts
+/// (rad/s, positive = forward; e.g. a motor controller's measured speeds),
+/// unvalidated: the odometry refuses non-finite and impossible values.
+/// Each is the rate at `t`; the odometry integrates consecutive samples by
+/// the trapezoidal rule.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RawWheelRates {
+    /// When the rates were measured.
+    pub t: Timestamp,
+    /// Left wheel angular rate, rad/s.
+    pub left: f32,
+    /// Right wheel angular rate, rad/s.
+    pub right: f32,
+}
+
 /// Wheel angular rates (rad/s, positive = forward) over an interval, as
 /// `wheel-odom` derives them from encoder counts; the EKF's wheel
 /// measurement. Validated: both rates are finite (the fields are private,

@@ -1,4 +1,7 @@
-//! Differential-drive odometry from cumulative wheel counts.
+//! Differential-drive odometry from cumulative wheel counts, or from wheel
+//! angular rates where a robot reports those instead
+//! ([`DiffDriveOdometry::update_rates`]: consecutive rates integrated by the
+//! trapezoidal rule; the EKF gets the rates measured at the sample's time).
 //!
 //! Each accepted [`WheelTicks`] sample after the first gives an
 //! [`OdometryStep`]: the body displacement over the step ([`OdometryDelta`],
@@ -26,7 +29,7 @@ use core::fmt;
 use vslam_core::geometry::Vec3;
 use vslam_core::kinematics::rim;
 use vslam_core::robot::{RobotDescription, RobotError};
-use vslam_core::sensors::{OdometryDelta, WheelRates, WheelTicks};
+use vslam_core::sensors::{OdometryDelta, RawWheelRates, WheelRates, WheelTicks};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
 /// Why odometry parameters were refused.
@@ -194,6 +197,7 @@ pub struct DiffDriveOdometry {
     params: DiffDriveParams,
     clock: SampleClock,
     last: Option<WheelTicks>,
+    last_rates: Option<RawWheelRates>,
     counts: SampleCounts,
 }
 
@@ -204,6 +208,7 @@ impl DiffDriveOdometry {
             params,
             clock: SampleClock::new(params.max_step_ns),
             last: None,
+            last_rates: None,
             counts: SampleCounts::new(),
         }
     }
@@ -227,6 +232,7 @@ impl DiffDriveOdometry {
     pub fn reset(&mut self) {
         self.clock.reset();
         self.last = None;
+        self.last_rates = None;
     }
 
     /// Takes one sample: `Ok(None)` for the first (anchor), `Ok(Some(step))`
@@ -266,16 +272,82 @@ impl DiffDriveOdometry {
         let p = &self.params;
         let left_rad = p.ticks_to_radians(dl);
         let right_rad = p.ticks_to_radians(dr);
-        let left_m = rim(p.left_radius, left_rad);
-        let right_m = rim(p.right_radius, right_rad);
         let max_travel = p.max_wheel_speed * dt;
-        if !(libm::fabsf(left_m) <= max_travel && libm::fabsf(right_m) <= max_travel) {
+        if !(libm::fabsf(rim(p.left_radius, left_rad)) <= max_travel
+            && libm::fabsf(rim(p.right_radius, right_rad)) <= max_travel)
+        {
             return Err(Reject::OutOfRange);
         }
-        let arc = integrate_arc(left_m, right_m, p.wheel_base);
         let rates = WheelRates::new(ticks.t, left_rad / dt, right_rad / dt)?;
+        let step = self.integrate(last.t, dt, left_rad, right_rad, rates)?;
+        self.clock = clock;
+        self.last = Some(ticks);
+        Ok(Some(step))
+    }
+
+    /// Takes one sample of wheel angular rates (the robot reports rates, not
+    /// counts): `Ok(None)` for the first (anchor), `Ok(Some(step))` for an
+    /// accepted step whose wheel angles are the trapezoid of this sample's
+    /// and the previous sample's rates and whose [`OdometryStep::rates`] are
+    /// this sample's; `Err(reason)` as [`DiffDriveOdometry::update`] (a rim
+    /// speed above the maximum is [`Reject::OutOfRange`], a non-finite rate
+    /// [`Reject::NonFinite`]; both keep the anchor). Feed one odometry
+    /// either counts or rates.
+    pub fn update_rates(&mut self, s: RawWheelRates) -> Result<Option<OdometryStep>, Reject> {
+        let outcome = self.step_rates(s);
+        self.counts.record(outcome.map(|_| ()));
+        outcome
+    }
+
+    fn step_rates(&mut self, s: RawWheelRates) -> Result<Option<OdometryStep>, Reject> {
+        let rates = WheelRates::new(s.t, s.left, s.right)?;
+        let p = &self.params;
+        if !(libm::fabsf(rim(p.left_radius, s.left)) <= p.max_wheel_speed
+            && libm::fabsf(rim(p.right_radius, s.right)) <= p.max_wheel_speed)
+        {
+            return Err(Reject::OutOfRange);
+        }
+        let mut clock = self.clock;
+        let accepted = clock.accept(s.t);
+        let (dt, last) = match (accepted, self.last_rates) {
+            (Ok(Some(dt)), Some(last)) => (dt, last),
+            (Ok(_), _) => {
+                self.clock = clock;
+                self.last_rates = Some(s);
+                return Ok(None);
+            }
+            (Err(Reject::Gap), _) => {
+                self.clock = clock;
+                self.last_rates = Some(s);
+                return Err(Reject::Gap);
+            }
+            (Err(reason), _) => return Err(reason),
+        };
+        let left_rad = 0.5 * (last.left + s.left) * dt;
+        let right_rad = 0.5 * (last.right + s.right) * dt;
+        let step = self.integrate(last.t, dt, left_rad, right_rad, rates)?;
+        self.clock = clock;
+        self.last_rates = Some(s);
+        Ok(Some(step))
+    }
+
+    /// The step from `t0` over `dt` seconds in which the wheels turned
+    /// `left_rad` and `right_rad`, with the wheel `rates` for the EKF.
+    fn integrate(
+        &self,
+        t0: Timestamp,
+        dt: f32,
+        left_rad: f32,
+        right_rad: f32,
+        rates: WheelRates,
+    ) -> Result<OdometryStep, Reject> {
+        let p = &self.params;
+        let left_m = rim(p.left_radius, left_rad);
+        let right_m = rim(p.right_radius, right_rad);
+        let arc = integrate_arc(left_m, right_m, p.wheel_base);
+        let t1 = rates.t();
         let velocity = BodyVelocity {
-            t: ticks.t,
+            t: t1,
             forward: arc.arc_length / dt,
             yaw_rate: arc.dyaw / dt,
         };
@@ -284,18 +356,16 @@ impl DiffDriveOdometry {
             return Err(Reject::NonFinite);
         }
         let delta = OdometryDelta {
-            t0: last.t,
-            t1: ticks.t,
+            t0,
+            t1,
             translation: Vec3::new(arc.x, arc.y, 0.0),
             dyaw: arc.dyaw,
             path_length: arc.path_length(),
         };
-        self.clock = clock;
-        self.last = Some(ticks);
-        Ok(Some(OdometryStep {
+        Ok(OdometryStep {
             delta,
             rates,
             velocity,
-        }))
+        })
     }
 }

@@ -206,3 +206,63 @@ proptest! {
         prop_assert_eq!(o.counts().seen() as usize, samples.len());
     }
 }
+
+fn rates(ms: u64, left: f32, right: f32) -> vslam_core::sensors::RawWheelRates {
+    vslam_core::sensors::RawWheelRates {
+        t: Timestamp(ms * MS),
+        left,
+        right,
+    }
+}
+
+#[test]
+fn wheel_rates_integrate_by_the_trapezoid_and_pass_the_measured_rates() {
+    let mut o = odo();
+    assert_eq!(o.update_rates(rates(0, 10.0, 10.0)), Ok(None));
+    // 10 then 20 rad/s over 0.1 s: 1.5 rad of wheel turn, 0.0525 m.
+    let s = o.update_rates(rates(100, 20.0, 20.0)).unwrap().unwrap();
+    assert!(close(s.delta.translation.x, 1.5 * R, 1e-6), "{:?}", s.delta);
+    assert_eq!(s.delta.dyaw, 0.0);
+    assert_eq!((s.rates.left(), s.rates.right()), (20.0, 20.0));
+    assert_eq!(
+        (s.delta.t0, s.delta.t1),
+        (Timestamp(0), Timestamp(100 * MS))
+    );
+    // Opposite rates turn in place: dyaw = 2 * r * angle / base.
+    let mut o = odo();
+    o.update_rates(rates(0, -5.0, 5.0)).unwrap();
+    let s = o.update_rates(rates(200, -5.0, 5.0)).unwrap().unwrap();
+    assert!(
+        close(s.delta.dyaw, 2.0 * R * 1.0 / BASE, 1e-6),
+        "{}",
+        s.delta.dyaw
+    );
+    assert!(close(s.velocity.yaw_rate, 2.0 * R * 5.0 / BASE, 1e-5));
+}
+
+#[test]
+fn bad_wheel_rates_are_rejected_with_reasons_and_the_anchor_kept() {
+    let mut o = odo();
+    o.update_rates(rates(0, 1.0, 1.0)).unwrap();
+    assert_eq!(
+        o.update_rates(rates(20, f32::NAN, 1.0)),
+        Err(Reject::NonFinite)
+    );
+    // 2 m/s is the fastest rim speed: 100 rad/s at 35 mm is 3.5 m/s.
+    assert_eq!(
+        o.update_rates(rates(40, 100.0, 1.0)),
+        Err(Reject::OutOfRange)
+    );
+    assert_eq!(o.update_rates(rates(0, 1.0, 1.0)), Err(Reject::Duplicate));
+    let s = o.update_rates(rates(60, 1.0, 1.0)).unwrap().unwrap();
+    assert_eq!(
+        s.delta.t0,
+        Timestamp(0),
+        "the anchor survived the rejections"
+    );
+    assert_eq!(o.update_rates(rates(1000, 1.0, 1.0)), Err(Reject::Gap));
+    let s = o.update_rates(rates(1020, 1.0, 1.0)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(1000 * MS), "a gap re-anchors");
+    assert_eq!(o.counts().fused(), 3);
+    assert_eq!(o.counts().seen(), 7);
+}

@@ -121,6 +121,19 @@ pub fn read_rows(path: &Path, columns: usize) -> Result<Vec<Row>, CliError> {
     Ok(rows)
 }
 
+/// The first line of `path` (its header, in an ASL `data.csv`); empty for
+/// an empty file.
+pub fn first_line(path: &Path) -> Result<String, CliError> {
+    use std::io::BufRead;
+    let file =
+        std::fs::File::open(path).map_err(|e| CliError::file(path, format!("cannot read: {e}")))?;
+    let mut line = Vec::new();
+    std::io::BufReader::new(file)
+        .read_until(b'\n', &mut line)
+        .map_err(|e| CliError::file(path, format!("cannot read: {e}")))?;
+    Ok(String::from_utf8_lossy(&line).into_owned())
+}
+
 /// Writes a header line and rows (each row already formatted without the newline).
 pub fn write_rows(
     path: &Path,

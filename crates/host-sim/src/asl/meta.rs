@@ -93,14 +93,19 @@ impl ImuMeta {
 pub struct WheelMeta {
     /// Sample rate, Hz.
     pub rate_hz: f64,
-    /// Encoder counts per wheel revolution.
-    pub ticks_per_revolution: f64,
+    /// Encoder counts per wheel revolution (`None` for a log of wheel
+    /// angular rates, which has no encoder counts).
+    pub ticks_per_revolution: Option<f64>,
     /// Nominal left wheel radius, metres.
     pub wheel_radius_left: f64,
     /// Nominal right wheel radius, metres.
     pub wheel_radius_right: f64,
     /// Distance between the wheels' contact points, metres.
     pub wheel_base: f64,
+    /// Effective over physical track (`track_factor`, optional, default 1):
+    /// above 1 for a skid steer, whose turn rate from the wheel speeds is as
+    /// if the wheels were this much further apart.
+    pub track_factor: f64,
     /// Wheel type name (for the grip table).
     pub wheel_type: String,
 }
@@ -111,25 +116,42 @@ impl WheelMeta {
         let y = SensorYaml::load(path)?;
         Ok(WheelMeta {
             rate_hz: y.positive("rate_hz")?,
-            ticks_per_revolution: y.positive("ticks_per_revolution")?,
+            ticks_per_revolution: if y.has("ticks_per_revolution") {
+                Some(y.positive("ticks_per_revolution")?)
+            } else {
+                None
+            },
             wheel_radius_left: y.positive("wheel_radius_left")?,
             wheel_radius_right: y.positive("wheel_radius_right")?,
             wheel_base: y.positive("wheel_base")?,
+            track_factor: if y.has("track_factor") {
+                y.positive("track_factor")?
+            } else {
+                1.0
+            },
             wheel_type: y.string("wheel_type")?,
         })
     }
 
-    /// Writes the file.
+    /// Writes the file (`ticks_per_revolution` when there is one,
+    /// `track_factor` when it is not 1).
     pub fn write(&self, path: &Path) -> Result<(), CliError> {
-        let s = format!(
-            "sensor_type: wheel_encoders\ncomment: traction host-sim\nrate_hz: {}\nticks_per_revolution: {}\nwheel_radius_left: {}\nwheel_radius_right: {}\nwheel_base: {}\nwheel_type: {}\n",
-            self.rate_hz,
-            self.ticks_per_revolution,
-            self.wheel_radius_left,
-            self.wheel_radius_right,
-            self.wheel_base,
-            self.wheel_type
+        let mut s = format!(
+            "sensor_type: wheel_encoders\ncomment: traction host-sim\nrate_hz: {}\n",
+            self.rate_hz
         );
+        if let Some(t) = self.ticks_per_revolution {
+            let _ = writeln!(s, "ticks_per_revolution: {t}");
+        }
+        let _ = write!(
+            s,
+            "wheel_radius_left: {}\nwheel_radius_right: {}\nwheel_base: {}\n",
+            self.wheel_radius_left, self.wheel_radius_right, self.wheel_base
+        );
+        if self.track_factor != 1.0 {
+            let _ = writeln!(s, "track_factor: {}", self.track_factor);
+        }
+        let _ = writeln!(s, "wheel_type: {}", self.wheel_type);
         write_file(path, &s)
     }
 }

@@ -7,27 +7,35 @@
 //! |---|---|
 //! | `imu0` | `#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]` |
 //! | `wheel0` | `#timestamp [ns],left [ticks],right [ticks]` (cumulative) |
+//! | `wheel0`, rates | `#timestamp [ns],left [rad s^-1],right [rad s^-1]` (wheel angular rates at the time stamp, positive forward; `sensor.yaml` without `ticks_per_revolution`) |
 //! | `flow0` | `#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter` |
 //! | `cam0`, `seg0` | `#timestamp [ns],filename` (images in `data/`) |
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
+//! Beside `mav0/`, an optional `labels.yaml` ([`Labels`]) says where the
+//! data came from and what it lacks.
 
-mod csvio;
+pub(crate) mod csvio;
+mod labels;
 mod meta;
 mod yaml;
 
+pub use labels::{LABELS_FILE, Labels};
 pub use meta::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta};
 
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
 use vslam_core::Timestamp;
-use vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
+use vslam_core::sensors::{FlowSample, RawImuSample, RawWheelRates, WheelTicks};
 
 /// Header of `imu0/data.csv`.
 pub const IMU_HEADER: &str = "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]";
 /// Header of `wheel0/data.csv`.
 pub const WHEEL_HEADER: &str = "#timestamp [ns],left [ticks],right [ticks]";
+/// Header of `wheel0/data.csv` holding wheel angular rates (the variant for
+/// robots that report rates, not counts; told apart by this header).
+pub const WHEEL_RATES_HEADER: &str = "#timestamp [ns],left [rad s^-1],right [rad s^-1]";
 /// Header of `flow0/data.csv`.
 pub const FLOW_HEADER: &str = "#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter";
 /// Header of `cam0/data.csv` and `seg0/data.csv`.
@@ -68,6 +76,8 @@ pub struct Dataset {
     pub imu: Option<(ImuMeta, Vec<RawImuSample>)>,
     /// Wheel encoder stream.
     pub wheel: Option<(WheelMeta, Vec<WheelTicks>)>,
+    /// Wheel angular rates (the `wheel0` variant; never with `wheel`).
+    pub wheel_rates: Option<(WheelMeta, Vec<RawWheelRates>)>,
     /// Optical-flow stream.
     pub flow: Option<(FlowMeta, Vec<FlowSample>)>,
     /// Upward camera frames.
@@ -76,6 +86,8 @@ pub struct Dataset {
     pub seg: Option<(SegMeta, Vec<ImageEntry>)>,
     /// Ground truth, when recorded.
     pub groundtruth: Option<Vec<GroundTruth>>,
+    /// `labels.yaml`, when present.
+    pub labels: Option<Labels>,
 }
 
 impl Dataset {
@@ -85,7 +97,7 @@ impl Dataset {
         if self.imu.is_none() {
             m.push("imu0");
         }
-        if self.wheel.is_none() {
+        if self.wheel.is_none() && self.wheel_rates.is_none() {
             m.push("wheel0");
         }
         if self.flow.is_none() {
@@ -137,17 +149,36 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         ds.imu = Some((meta, v));
     }
     if let Some(d) = sensor_dir(root, "wheel0") {
-        let meta = WheelMeta::read(&d.join("sensor.yaml"))?;
+        let yaml = d.join("sensor.yaml");
+        let meta = WheelMeta::read(&yaml)?;
         let p = d.join("data.csv");
-        let mut v = Vec::new();
-        for r in csvio::read_rows(&p, 3)? {
-            v.push(WheelTicks {
-                t: r.t,
-                left: r.int(&p, 0, "left")?,
-                right: r.int(&p, 1, "right")?,
-            });
+        if csvio::first_line(&p)?.trim() == WHEEL_RATES_HEADER {
+            let mut v = Vec::new();
+            for r in csvio::read_rows(&p, 3)? {
+                v.push(RawWheelRates {
+                    t: r.t,
+                    left: r.f64(&p, 0, "left")? as f32,
+                    right: r.f64(&p, 1, "right")? as f32,
+                });
+            }
+            ds.wheel_rates = Some((meta, v));
+        } else {
+            if meta.ticks_per_revolution.is_none() {
+                return Err(CliError::file(
+                    &yaml,
+                    "missing key `ticks_per_revolution` (data.csv holds ticks)",
+                ));
+            }
+            let mut v = Vec::new();
+            for r in csvio::read_rows(&p, 3)? {
+                v.push(WheelTicks {
+                    t: r.t,
+                    left: r.int(&p, 0, "left")?,
+                    right: r.int(&p, 1, "right")?,
+                });
+            }
+            ds.wheel = Some((meta, v));
         }
-        ds.wheel = Some((meta, v));
     }
     if let Some(d) = sensor_dir(root, "flow0") {
         let meta = FlowMeta::read(&d.join("sensor.yaml"))?;
@@ -195,6 +226,7 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         }
         ds.groundtruth = Some(v);
     }
+    ds.labels = Labels::read(root)?;
     Ok(ds)
 }
 
@@ -252,6 +284,16 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
                 .map(|s| format!("{},{},{}", s.t.0, s.left, s.right)),
         )?;
     }
+    if let Some((meta, v)) = &ds.wheel_rates {
+        let d = mk("wheel0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            WHEEL_RATES_HEADER,
+            v.iter()
+                .map(|s| format!("{},{:e},{:e}", s.t.0, s.left, s.right)),
+        )?;
+    }
     if let Some((meta, v)) = &ds.flow {
         let d = mk("flow0")?;
         meta.write(&d.join("sensor.yaml"))?;
@@ -289,6 +331,9 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
                 format!("{},{}", g.t.0, nums.join(","))
             }),
         )?;
+    }
+    if let Some(l) = &ds.labels {
+        l.write(root)?;
     }
     Ok(())
 }
@@ -366,10 +411,11 @@ mod tests {
             wheel: Some((
                 WheelMeta {
                     rate_hz: 50.0,
-                    ticks_per_revolution: 1024.0,
+                    ticks_per_revolution: Some(1024.0),
                     wheel_radius_left: 0.035,
                     wheel_radius_right: 0.035,
                     wheel_base: 0.23,
+                    track_factor: 1.0,
                     wheel_type: "soft_rubber".into(),
                 },
                 wheel,
@@ -393,6 +439,8 @@ mod tests {
                 bias_gyro: [0.0; 3],
                 bias_accel: [0.0; 3],
             }]),
+            labels: None,
+            ..Dataset::default()
         }
     }
 
@@ -407,6 +455,47 @@ mod tests {
         assert_eq!(back.flow, ds.flow);
         assert_eq!(back.groundtruth, ds.groundtruth);
         assert_eq!(back.missing(), vec!["cam0", "seg0"]);
+    }
+
+    #[test]
+    fn wheel_rates_round_trip_and_are_told_apart_by_the_header() {
+        let d = tmp("rates");
+        let mut ds = sample_dataset();
+        let (mut meta, _) = ds.wheel.take().unwrap();
+        meta.ticks_per_revolution = None;
+        meta.track_factor = 1.8;
+        let rates = vec![
+            RawWheelRates {
+                t: Timestamp(10),
+                left: 1.5,
+                right: -0.25,
+            },
+            RawWheelRates {
+                t: Timestamp(20),
+                left: 3.0e-7,
+                right: 0.0,
+            },
+        ];
+        ds.wheel_rates = Some((meta, rates));
+        write_dataset(&d, &ds).unwrap();
+        let back = read_dataset(&d).unwrap();
+        assert_eq!(back.wheel_rates, ds.wheel_rates);
+        assert!(back.wheel.is_none());
+        assert!(!back.missing().contains(&"wheel0"));
+        // A ticks file needs the encoder resolution.
+        let csv = d.join("mav0/wheel0/data.csv");
+        std::fs::write(&csv, format!("{WHEEL_HEADER}\n10,1,2\n")).unwrap();
+        let e = read_dataset(&d).unwrap_err().to_string();
+        assert!(
+            e.contains("wheel0/sensor.yaml: missing key `ticks_per_revolution`"),
+            "{e}"
+        );
+        std::fs::write(&csv, format!("{WHEEL_RATES_HEADER}\n10,1,x\n")).unwrap();
+        let e = read_dataset(&d).unwrap_err().to_string();
+        assert!(
+            e.contains("wheel0/data.csv:2: right: `x` is not a number"),
+            "{e}"
+        );
     }
 
     #[test]

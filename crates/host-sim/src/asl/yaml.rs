@@ -115,6 +115,31 @@ impl SensorYaml {
         }
     }
 
+    /// The mapping's keys that are strings, in file order.
+    pub fn keys(&self) -> Vec<String> {
+        self.doc
+            .as_hash()
+            .map(|h| {
+                h.keys()
+                    .filter_map(|k| k.as_str().map(str::to_owned))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// A list of strings.
+    pub fn strings(&self, key: &str) -> Result<Vec<String>, CliError> {
+        self.get(key)?
+            .as_vec()
+            .and_then(|items| {
+                items
+                    .iter()
+                    .map(|i| i.as_str().map(str::to_owned))
+                    .collect::<Option<Vec<String>>>()
+            })
+            .ok_or_else(|| self.bad(key, "expected a list of strings"))
+    }
+
     /// A list of finite numbers of length `n` (any length when `n` is `None`).
     pub fn numbers(&self, key: &str, n: Option<usize>) -> Result<Vec<f64>, CliError> {
         let v = self.get(key)?;

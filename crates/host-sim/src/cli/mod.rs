@@ -15,6 +15,7 @@ macro_rules! outln {
 }
 
 pub mod homography;
+pub mod import;
 pub mod run;
 pub mod track;
 

@@ -97,6 +97,30 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
     if missing > 0 {
         println!("missing sensors: {}", r.report["missing_sensors"]);
     }
+    if r.ekf.is_empty() && !r.wheel_only.is_empty() {
+        let why = if r.report["missing_sensors"]
+            .as_array()
+            .is_some_and(|m| m.iter().any(|s| s == "imu0"))
+        {
+            "no IMU: the EKF does not run"
+        } else {
+            "the EKF never started (it starts on 50 still IMU samples)"
+        };
+        println!("note: {why}; the wheel-only trajectory is the estimate");
+    }
+    if let Some(labels) = r.report.get("labels") {
+        for (k, v) in labels.as_object().into_iter().flatten() {
+            match v {
+                serde_json::Value::String(v) => println!("{k}: {v}"),
+                serde_json::Value::Array(notes) => {
+                    for n in notes.iter().filter_map(|n| n.as_str()) {
+                        println!("note: {n}");
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
     println!(
         "wrote {}/{{ekf.tum,vslam.tum,wheel_only.tum,report.json,trajectory.svg,errors.svg,report.html}}",
         out.display()

@@ -3,7 +3,7 @@
 //! sensor under `mav0/`, each with its noise figures and `T_BS`).
 
 use super::ReplayOptions;
-use crate::asl::{Dataset, SegMeta};
+use crate::asl::{Dataset, SegMeta, WheelMeta};
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
 use traction::ego_ekf::surface::{
@@ -103,15 +103,29 @@ pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, 
             noise: ImuNoise::default(),
         },
     };
-    let wheels = match &ds.wheel {
-        Some((m, _)) => Wheels {
-            radius_left: m.wheel_radius_left as f32,
-            radius_right: m.wheel_radius_right as f32,
-            track: m.wheel_base as f32,
-            track_factor: 1.0,
-            counts_per_revolution: m.ticks_per_revolution.round() as u32,
-            ..preset.wheels
-        },
+    let wheels = match wheel_meta(ds) {
+        Some(m) => {
+            // The odometry counts whole ticks per revolution; a fractional
+            // resolution (a geared motor's encoder: 43.7 x 64 = 2796.8) is
+            // rounded and the radii scaled so that a tick is the same
+            // distance as before (exactly 1 for a whole resolution). A log
+            // of wheel rates has no counts: the preset's stand, unused.
+            let (counts, k) = match m.ticks_per_revolution {
+                Some(t) => {
+                    let counts = t.round().max(1.0);
+                    (counts as u32, counts / t)
+                }
+                None => (preset.wheels.counts_per_revolution, 1.0),
+            };
+            Wheels {
+                radius_left: (m.wheel_radius_left * k) as f32,
+                radius_right: (m.wheel_radius_right * k) as f32,
+                track: m.wheel_base as f32,
+                track_factor: m.track_factor as f32,
+                counts_per_revolution: counts,
+                ..preset.wheels
+            }
+        }
         None => preset.wheels,
     };
     let flow = match (&ds.flow, preset.flow) {
@@ -145,6 +159,14 @@ pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, 
     Ok(robot)
 }
 
+/// `wheel0/sensor.yaml`, of ticks or of rates.
+fn wheel_meta(ds: &Dataset) -> Option<&WheelMeta> {
+    ds.wheel
+        .as_ref()
+        .map(|(m, _)| m)
+        .or(ds.wheel_rates.as_ref().map(|(m, _)| m))
+}
+
 fn sensor_folder(s: MountedSensor) -> &'static str {
     match s {
         MountedSensor::Imu => "imu0",
@@ -163,7 +185,7 @@ pub(super) fn estimator_config(
     let robot = robot_description(ds, root)?;
     let mut config = EstimatorConfig::from_robot(&robot)
         .map_err(|e| CliError::file(root, format!("configuration: {e}")))?;
-    let wheel_type_name = ds.wheel.as_ref().map_or("", |(m, _)| m.wheel_type.as_str());
+    let wheel_type_name = wheel_meta(ds).map_or("", |m| m.wheel_type.as_str());
     config.surface = match &ds.seg {
         Some((m, _)) if options.surface_model => Some(surface_config(
             m,

@@ -20,7 +20,7 @@ use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
 use traction::vslam_core::geometry::{Quat, Vec3};
 use traction::vslam_core::image::LabelView;
-use traction::vslam_core::sensors::WheelTicks;
+use traction::vslam_core::sensors::{RawWheelRates, WheelTicks};
 use traction::vslam_core::{PerStream, Reject, StreamCounts, Timestamp};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
@@ -122,6 +122,13 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
                     wheels
                         .iter()
                         .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
+                );
+            }
+            if let Some((_, rates)) = &ds.wheel_rates {
+                items.extend(
+                    rates
+                        .iter()
+                        .map(|s| (s.t, 0, Next::Sample(Event::WheelRates(*s)))),
                 );
             }
             if let Some((_, f)) = &ds.flow {
@@ -374,8 +381,16 @@ pub(super) fn run(
     bar.finish_and_clear();
 
     let wheels = ds.wheel.as_ref().map(|(_, v)| v.as_slice()).unwrap_or(&[]);
-    let wheel_only = wheel_only(&config.odometry, wheels);
-    let report = report_json(&missing, &c, &est);
+    let rates = ds
+        .wheel_rates
+        .as_ref()
+        .map(|(_, v)| v.as_slice())
+        .unwrap_or(&[]);
+    let wheel_only = wheel_only(&config.odometry, wheels, rates);
+    let mut report = report_json(&missing, &c, &est);
+    if let Some(l) = &ds.labels {
+        report["labels"] = l.to_json();
+    }
     let errors = match &ds.groundtruth {
         Some(gt) => errors(
             gt,
@@ -410,13 +425,27 @@ fn errors(
         .collect()
 }
 
-/// Dead reckoning from the wheels alone: the baseline every estimate must beat.
-fn wheel_only(params: &DiffDriveParams, wheels: &[WheelTicks]) -> Vec<TumPose> {
+/// Dead reckoning from the wheels alone (counts or rates): the baseline
+/// every estimate must beat.
+fn wheel_only(
+    params: &DiffDriveParams,
+    wheels: &[WheelTicks],
+    rates: &[RawWheelRates],
+) -> Vec<TumPose> {
     let mut odo = DiffDriveOdometry::new(*params);
     let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
-    let mut out = Vec::with_capacity(wheels.len());
-    for w in wheels {
-        if let Ok(Some(step)) = odo.update(*w) {
+    let mut out = Vec::with_capacity(wheels.len() + rates.len());
+    let steps = wheels
+        .iter()
+        .map(|w| (w.t, Event::Wheel(*w)))
+        .chain(rates.iter().map(|r| (r.t, Event::WheelRates(*r))));
+    for (t, sample) in steps {
+        let step = match sample {
+            Event::WheelRates(r) => odo.update_rates(r),
+            Event::Wheel(w) => odo.update(w),
+            _ => continue,
+        };
+        if let Ok(Some(step)) = step {
             let d = step.delta.translation;
             let (s, c) = yaw.sin_cos();
             x += c * d.x as f64 - s * d.y as f64;
@@ -425,7 +454,7 @@ fn wheel_only(params: &DiffDriveParams, wheels: &[WheelTicks]) -> Vec<TumPose> {
         }
         let (s, c) = (0.5 * yaw).sin_cos();
         out.push(TumPose {
-            t: w.t,
+            t,
             p: [x, y, 0.0],
             q_xyzw: [0.0, 0.0, s, c],
         });

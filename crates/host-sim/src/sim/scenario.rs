@@ -340,10 +340,11 @@ pub fn generate_with(
         wheel: Some((
             WheelMeta {
                 rate_hz: sc.wheel_rate_hz,
-                ticks_per_revolution: sc.robot.ticks_per_revolution,
+                ticks_per_revolution: Some(sc.robot.ticks_per_revolution),
                 wheel_radius_left: sc.robot.nominal_radius,
                 wheel_radius_right: sc.robot.nominal_radius,
                 wheel_base: sc.robot.wheel_base,
+                track_factor: 1.0,
                 wheel_type: "soft_rubber".into(),
             },
             wheel_samples,
@@ -383,6 +384,8 @@ pub fn generate_with(
             labels,
         )),
         groundtruth: Some(groundtruth(&truth, &biases, every(m.rate_hz))),
+        wheel_rates: None,
+        labels: None,
     };
     Ok((ds, truth, faults))
 }
