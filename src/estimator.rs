@@ -21,6 +21,7 @@
 //! exactly one count of its stream (fused, or rejected with a reason), so a
 //! report's counts add up to what went in.
 
+use crate::estimate::{Estimate, estimate_of};
 use crate::frontend::FrontEnd;
 use crate::reorder::{Event, Pushed, Reorder};
 use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
@@ -417,6 +418,14 @@ impl<'b> Estimator<'b> {
         let outcome = self.ekf.fuse_flow(s).map(|_| ());
         self.counts[Stream::Flow].record(outcome);
         Processed::Flow { t: s.t, outcome }
+    }
+
+    /// The estimate: the pose of the body frame B (mid-axle on the floor)
+    /// in the world, its velocity, yaw rate, pose covariance and the aids
+    /// that contributed (see [`crate::estimate`]); `None` until the filter
+    /// has started (it starts on the first still IMU samples).
+    pub fn estimate(&self) -> Option<Estimate> {
+        estimate_of(&self.ekf)
     }
 
     /// The filter.

@@ -7,7 +7,9 @@
 //! ([`ego_ekf`]), the wheel odometry ([`wheel_odom`]) and the metric-scale
 //! pipeline and camera path ([`vslam_core`], [`FrontEnd`]), and counts every
 //! sample as fused, gated or rejected with a reason. Its configuration comes
-//! from one [`RobotDescription`] ([`EstimatorConfig::from_robot`]).
+//! from one [`RobotDescription`] ([`EstimatorConfig::from_robot`]); its answer
+//! is one [`Estimate`] ([`Estimator::estimate`]): the pose of the body frame
+//! (mid-axle on the floor) in the world, with its covariance.
 //!
 //! What it will not do: allocate, panic on data, read files or talk to a bus
 //! (the drivers in [`flow_sensor`] and [`wheel_odom`] do that, over
@@ -45,10 +47,12 @@
 //! estimator.finish();
 //! while estimator.poll().is_some() {}
 //!
-//! // Read the estimate and the accounting.
-//! let ekf = estimator.ekf();
-//! assert!((ekf.robot_velocity().x - 0.1).abs() < 0.02, "{}", ekf.robot_velocity());
-//! assert!((ekf.position().x - 0.09).abs() < 0.02, "{}", ekf.position());
+//! // Read the estimate (the body frame's pose, velocity, covariance, aids)
+//! // and the accounting.
+//! let estimate = estimator.estimate().expect("the filter has started");
+//! assert!((estimate.v_b.x - 0.1).abs() < 0.02, "{}", estimate.v_b);
+//! assert!((estimate.p_wb.x - 0.09).abs() < 0.02, "{}", estimate.p_wb);
+//! assert!(estimate.aids.wheels);
 //! let counts = estimator.counts();
 //! assert_eq!(counts[Stream::Imu].seen(), 500); // every sample ends in one count
 //! assert_eq!(counts[Stream::Wheel].seen(), 100);
@@ -71,10 +75,12 @@ pub use vslam_core;
 pub use wheel_odom;
 
 pub mod config;
+pub mod estimate;
 pub mod estimator;
 pub mod frontend;
 pub mod reorder;
 
+pub use estimate::{Aids, Estimate, PoseCovariance};
 pub use estimator::{Estimator, EstimatorConfig, EstimatorError, Processed};
 pub use frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 pub use reorder::Event;

@@ -2,6 +2,7 @@
 //! time stamps in seconds (written exactly from integer nanoseconds), so
 //! `evo` and the usual tools read it.
 
+use crate::asl::GroundTruth;
 use crate::error::CliError;
 use std::io::Write;
 use std::path::Path;
@@ -18,13 +19,37 @@ pub struct TumPose {
     pub q_xyzw: [f64; 4],
 }
 
+/// Ground truth as poses (the EuRoC rows' position and attitude).
+pub fn truth_poses(gt: &[GroundTruth]) -> Vec<TumPose> {
+    gt.iter()
+        .map(|g| {
+            let [w, x, y, z] = g.q_wxyz;
+            TumPose {
+                t: g.t,
+                p: g.p,
+                q_xyzw: [x, y, z, w],
+            }
+        })
+        .collect()
+}
+
 /// Formats a nanosecond time stamp as seconds with nine decimals.
 pub fn format_seconds(t: Timestamp) -> String {
     format!("{}.{:09}", t.0 / 1_000_000_000, t.0 % 1_000_000_000)
 }
 
-/// Writes a trajectory file.
+/// Writes a trajectory file; an empty trajectory writes none (and removes
+/// a file of that name left by an earlier run), so every trajectory file
+/// has poses.
 pub fn write_tum(path: &Path, poses: &[TumPose]) -> Result<(), CliError> {
+    if poses.is_empty() {
+        return match std::fs::remove_file(path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                Err(CliError::file(path, format!("cannot remove: {e}")))
+            }
+            _ => Ok(()),
+        };
+    }
     let file = std::fs::File::create(path)
         .map_err(|e| CliError::file(path, format!("cannot create: {e}")))?;
     let mut w = std::io::BufWriter::new(file);
@@ -45,6 +70,27 @@ pub fn write_tum(path: &Path, poses: &[TumPose]) -> Result<(), CliError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_empty_trajectory_writes_no_file() {
+        let dir = std::env::temp_dir().join(format!("traction-tum-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("empty.tum");
+        let one = TumPose {
+            t: Timestamp(1_500_000_000),
+            p: [1.0, 2.0, 3.0],
+            q_xyzw: [0.0, 0.0, 0.0, 1.0],
+        };
+        write_tum(&path, &[one]).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            "1.500000000 1.000000 2.000000 3.000000 0.000000000 0.000000000 0.000000000 1.000000000\n"
+        );
+        write_tum(&path, &[]).unwrap();
+        assert!(!path.exists(), "an empty trajectory left a file");
+        write_tum(&path, &[]).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn seconds_are_exact() {

@@ -53,6 +53,7 @@ fn simulate_then_replay_prints_the_summary_and_writes_every_file() {
         "ekf.tum",
         "vslam.tum",
         "wheel_only.tum",
+        "groundtruth.tum",
         "report.json",
         "trajectory.svg",
     ] {

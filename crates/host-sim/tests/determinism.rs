@@ -6,7 +6,7 @@
 //! write byte-identical files, and those files must equal the committed
 //! reference in `crates/host-sim/tests/reference/short_seed1/` (the simulated log's
 //! `wheel0/data.csv` and `flow0/data.csv`, and the replay's `ekf.tum`,
-//! `vslam.tum`, `wheel_only.tum` and `report.json`; not the images or the
+//! `vslam.tum`, `wheel_only.tum`, `groundtruth.tum` and `report.json`; not the images or the
 //! plot). A mismatch names the file, the first differing line and both
 //! versions of it.
 //!
@@ -37,7 +37,13 @@ const REFERENCE: &str = "tests/reference/short_seed1";
 /// Files of the simulated log compared (relative to the dataset's `mav0/`).
 const LOG_FILES: [&str; 2] = ["wheel0/data.csv", "flow0/data.csv"];
 /// Files of the replay compared.
-const REPLAY_FILES: [&str; 4] = ["ekf.tum", "vslam.tum", "wheel_only.tum", "report.json"];
+const REPLAY_FILES: [&str; 5] = [
+    "ekf.tum",
+    "vslam.tum",
+    "wheel_only.tum",
+    "groundtruth.tum",
+    "report.json",
+];
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("traction-det-{}-{name}", std::process::id()));

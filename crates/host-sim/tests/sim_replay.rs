@@ -109,6 +109,7 @@ fn slip_scenario_estimates_beat_wheel_only_and_replay_is_deterministic() {
         "ekf.tum",
         "vslam.tum",
         "wheel_only.tum",
+        "groundtruth.tum",
         "report.json",
         "trajectory.svg",
     ] {
@@ -156,6 +157,14 @@ fn sensors_may_be_absent() {
         missing.contains("imu0") && missing.contains("wheel0"),
         "{missing}"
     );
+    // No empty trajectory file is written.
+    let out = root.join("out");
+    run_replay(&data, &out, false).unwrap();
+    assert!(!out.join("ekf.tum").exists() && !out.join("wheel_only.tum").exists());
+    for f in ["vslam.tum", "groundtruth.tum"] {
+        let text = std::fs::read_to_string(out.join(f)).unwrap();
+        assert!(!text.is_empty(), "{f} is empty");
+    }
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -121,10 +121,13 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
             }
         }
     }
-    println!(
-        "wrote {}/{{ekf.tum,vslam.tum,wheel_only.tum,report.json,trajectory.svg,errors.svg,report.html}}",
-        out.display()
-    );
+    // Trajectories are written only when they have poses.
+    let mut files: Vec<&str> = ["ekf.tum", "vslam.tum", "wheel_only.tum", "groundtruth.tum"]
+        .into_iter()
+        .filter(|f| out.join(f).is_file())
+        .collect();
+    files.extend(["report.json", "trajectory.svg", "errors.svg", "report.html"]);
+    println!("wrote {}/{{{}}}", out.display(), files.join(","));
 }
 
 /// Runs `simulate`.

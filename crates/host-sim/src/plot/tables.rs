@@ -101,7 +101,8 @@ fn trajectory_colour(name: &str) -> &'static str {
     }
 }
 
-/// The error table from `report.json` `errors`: one row per trajectory.
+/// The error table from `report.json` `errors`: one row per trajectory,
+/// and a note that says how the figures are aligned.
 pub fn errors_table(errors: &Value) -> String {
     let Some(map) = errors.as_object().filter(|m| !m.is_empty()) else {
         return note("no ground truth in this log");
@@ -113,8 +114,11 @@ pub fn errors_table(errors: &Value) -> String {
                 vec![
                     swatch(trajectory_colour(name), name),
                     num(&e["ate_rmse_m"], 3),
+                    num(&e["ate_se2_rmse_m"], 3),
                     num(&e["final_error_m"], 3),
                     num(&e["final_error_pct_of_path"], 2),
+                    num(&e["max_height_error_m"], 3),
+                    num(&e["yaw_rmse_deg"], 2),
                     num(&e["path_length_m"], 2),
                 ],
                 false,
@@ -125,13 +129,16 @@ pub fn errors_table(errors: &Value) -> String {
         "errors against the ground truth",
         &[
             "trajectory",
-            "ATE RMSE [m]",
+            "ATE first pose [m]",
+            "ATE SE(2) [m]",
             "final error [m]",
             "final / path [%]",
+            "height max [m]",
+            "yaw RMSE [deg]",
             "path length [m]",
         ],
         &rows,
-    )
+    ) + &note(crate::metrics::ALIGNMENT)
 }
 
 /// A counts table (`report.json` `counts` or `filter_counts`, `what` names
@@ -510,13 +517,15 @@ mod tests {
     #[test]
     fn errors_table_has_one_row_per_trajectory_and_dashes_for_missing_numbers() {
         let t = errors_table(&json!({
-            "ekf": {"ate_rmse_m": 0.16158, "final_error_m": 0.1247,
-                    "final_error_pct_of_path": 0.787, "path_length_m": 15.847},
+            "ekf": {"ate_rmse_m": 0.16158, "ate_se2_rmse_m": 0.0712, "final_error_m": 0.1247,
+                    "final_error_pct_of_path": 0.787, "max_height_error_m": 0.1403,
+                    "yaw_rmse_deg": 0.254, "path_length_m": 15.847},
             "wheel_only": {"ate_rmse_m": null, "final_error_m": 3.6466,
                            "final_error_pct_of_path": 23.0, "path_length_m": 15.847},
         }));
         assert_eq!(t.matches("<tr>").count(), 3);
-        assert!(t.contains("ekf</td><td class=\"n\">0.162</td><td class=\"n\">0.125</td><td class=\"n\">0.79</td><td class=\"n\">15.85</td>"), "{t}");
+        assert!(t.contains("ekf</td><td class=\"n\">0.162</td><td class=\"n\">0.071</td><td class=\"n\">0.125</td><td class=\"n\">0.79</td><td class=\"n\">0.140</td><td class=\"n\">0.25</td><td class=\"n\">15.85</td>"), "{t}");
+        assert!(t.contains("first-pose"), "{t}");
         assert!(t.contains(&format!("wheel_only</td><td class=\"n\">{DASH}</td>")));
         assert!(t.contains(super::super::EKF_COLOUR));
         assert_eq!(

@@ -1,5 +1,7 @@
 //! Replay of a recorded ASL dataset through `traction::Estimator`, and the
-//! files it writes: `ekf.tum`, `vslam.tum`, `wheel_only.tum`, `report.json`,
+//! files it writes: `ekf.tum`, `vslam.tum`, `wheel_only.tum`,
+//! `groundtruth.tum` (poses of the body frame B, mid-axle on the floor),
+//! `report.json`,
 //! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
 //! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
@@ -24,11 +26,11 @@ use traction::vslam_core::{Reject, Timestamp};
 
 /// What a replay produced.
 pub struct ReplayOutput {
-    /// The EKF's body trajectory.
+    /// The estimator's trajectory of B ([`traction::Estimator::estimate`]).
     pub ekf: Vec<TumPose>,
-    /// Camera poses composed with the metric scale, expressed for the body.
+    /// Camera poses composed with the metric scale, moved to B.
     pub vslam: Vec<TumPose>,
-    /// Wheel odometry alone.
+    /// Wheel odometry alone (B's origin, mid-axle on the floor).
     pub wheel_only: Vec<TumPose>,
     /// The report.
     pub report: Value,

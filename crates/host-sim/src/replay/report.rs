@@ -1,16 +1,20 @@
 //! The replay's report: `report.json` (sample counts with their reason
 //! names, scale decisions, surface timeline, jolt events, the filter's final
-//! state), the files a replay writes, and the summary table printed after a
-//! run with ground truth.
+//! state, the trajectory errors of [`crate::metrics`]), the files a replay
+//! writes (the trajectories `ekf.tum`, `vslam.tum`, `wheel_only.tum` and,
+//! with ground truth, `groundtruth.tum`: all poses of the body frame B; none
+//! written empty), and the summary table printed after a run with ground
+//! truth.
 
 use super::ReplayOutput;
 use super::run::Collected;
 use crate::asl::GroundTruth;
 use crate::error::CliError;
+use crate::metrics::ALIGNMENT;
 use crate::plot::{
     PlotInputs, Scene, errors::errors_svg, html::report_html, trajectory::trajectory_svg,
 };
-use crate::tum::write_tum;
+use crate::tum::{truth_poses, write_tum};
 use serde_json::{Value, json};
 use std::path::Path;
 use traction::estimator::Estimator;
@@ -124,11 +128,15 @@ fn report_with_errors(r: &ReplayOutput) -> Value {
             .errors
             .iter()
             .map(|(n, e)| {
-                ((*n).to_string(), json!({"ate_rmse_m": e.ate_rmse, "final_error_m": e.final_error,
-                    "final_error_pct_of_path": 100.0 * e.final_relative(), "path_length_m": e.path_length}))
+                ((*n).to_string(), json!({"ate_rmse_m": e.ate_rmse, "ate_se2_rmse_m": e.ate_se2_rmse,
+                    "final_error_m": e.final_error,
+                    "final_error_pct_of_path": 100.0 * e.final_relative(), "path_length_m": e.path_length,
+                    "max_height_error_m": e.max_height_error, "yaw_rmse_deg": e.yaw_rmse_deg,
+                    "matched_poses": e.matched}))
             })
             .collect();
         report["errors"] = Value::Object(errs);
+        report["errors_alignment"] = json!(ALIGNMENT);
     }
     report
 }
@@ -145,6 +153,10 @@ pub fn write_outputs(
     write_tum(&out_dir.join("ekf.tum"), &r.ekf)?;
     write_tum(&out_dir.join("vslam.tum"), &r.vslam)?;
     write_tum(&out_dir.join("wheel_only.tum"), &r.wheel_only)?;
+    write_tum(
+        &out_dir.join("groundtruth.tum"),
+        &truth.map(truth_poses).unwrap_or_default(),
+    )?;
     let report = report_with_errors(r);
     let text = serde_json::to_string_pretty(&report)
         .map_err(|e| CliError::file(out_dir, e.to_string()))?;
@@ -176,16 +188,19 @@ fn write(p: &Path, text: &str) -> Result<(), CliError> {
     std::fs::write(p, text).map_err(|e| CliError::file(p, format!("cannot write: {e}")))
 }
 
-/// The error table: one line per trajectory.
+/// The error table: the alignment, then one line per trajectory.
 fn errors_table(r: &ReplayOutput) -> String {
-    let mut s = String::new();
-    s += "trajectory   ATE RMSE [m]  final error [m]  final / path\n";
+    let mut s = format!("{ALIGNMENT}\n");
+    s += "trajectory   ATE first [m]  ATE SE(2) [m]  final [m]  final / path  height max [m]  yaw RMSE [deg]\n";
     for (n, e) in &r.errors {
         s += &format!(
-            "{n:<12} {:>12.3}  {:>15.3}  {:>11.2} %\n",
+            "{n:<12} {:>13.3}  {:>13.3}  {:>9.3}  {:>10.2} %  {:>14.3}  {:>14.2}\n",
             e.ate_rmse,
+            e.ate_se2_rmse,
             e.final_error,
-            100.0 * e.final_relative()
+            100.0 * e.final_relative(),
+            e.max_height_error,
+            e.yaw_rmse_deg,
         );
     }
     s

@@ -11,7 +11,7 @@ use crate::faults::{FailedRead, Stream};
 use crate::metrics::trajectory_error;
 use crate::pngio::{GrayImage, load_gray};
 use crate::progress::Progress;
-use crate::tum::TumPose;
+use crate::tum::{TumPose, truth_poses};
 use serde_json::{Value, json};
 use std::path::Path;
 use traction::ego_ekf::events::JoltEvent;
@@ -167,11 +167,13 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
 /// What the run collects from the estimator's answers.
 #[derive(Default)]
 pub(super) struct Collected {
-    /// The EKF's poses, one per fused IMU sample once it runs.
+    /// The estimator's body poses ([`Estimator::estimate`]), one per fused
+    /// IMU sample once the filter runs.
     pub ekf: Vec<TumPose>,
     /// One report entry per scale decision.
     pub decisions: Vec<Value>,
-    /// The camera's body poses.
+    /// The camera path's body poses (the composed camera pose moved to B by
+    /// the camera's `T_BS`).
     pub vslam: Vec<TumPose>,
     /// One report entry per segmentation map.
     pub surfaces: Vec<Value>,
@@ -209,13 +211,10 @@ impl Collected {
         if let Processed::Imu { jolt: Some(e), .. } = p {
             self.jolts.push(e);
         }
-        if let Processed::Imu {
-            t, outcome: Ok(_), ..
-        } = p
-            && est.ekf().is_initialised()
+        if let Processed::Imu { outcome: Ok(_), .. } = p
+            && let Some(e) = est.estimate()
         {
-            self.ekf
-                .push(pose(t, est.ekf().position(), &est.ekf().attitude()));
+            self.ekf.push(pose(e.t, e.p_wb, &e.q_wb));
         }
     }
 
@@ -352,7 +351,7 @@ pub(super) fn run(
 ) -> Result<ReplayOutput, CliError> {
     // Any sensor may be absent: what is missing simply never arrives, and the
     // report's `missing_sensors` says so. Without an IMU the EKF never starts
-    // (ekf.tum stays empty); without wheels the EKF runs on IMU and flow.
+    // (and no ekf.tum is written); without wheels the EKF runs on IMU and flow.
     let missing = ds.missing();
     let config = estimator_config(ds, root, options)?;
     let fe_config = frontend_config(ds, root, config.scale.camera, options)?;
@@ -418,7 +417,7 @@ fn errors(
     gt: &[GroundTruth],
     trajectories: [(&'static str, &Vec<TumPose>); 3],
 ) -> Vec<(&'static str, crate::metrics::TrajectoryError)> {
-    let truth: Vec<(u64, [f64; 3])> = gt.iter().map(|g| (g.t.0, g.p)).collect();
+    let truth = truth_poses(gt);
     trajectories
         .into_iter()
         .filter_map(|(name, traj)| trajectory_error(traj, &truth).map(|e| (name, e)))
@@ -426,7 +425,8 @@ fn errors(
 }
 
 /// Dead reckoning from the wheels alone (counts or rates): the baseline
-/// every estimate must beat.
+/// every estimate must beat. The odometry integrates B's origin (mid-axle
+/// on the floor), from the origin, heading along x, on the floor (z = 0).
 fn wheel_only(
     params: &DiffDriveParams,
     wheels: &[WheelTicks],
