@@ -21,6 +21,7 @@ enum Command {
     Simulate(cli::run::SimulateArgs),
     Replay(cli::run::ReplayArgs),
     Import(cli::import::ImportArgs),
+    Accuracy(cli::accuracy::AccuracyArgs),
     Track(cli::track::TrackArgs),
     Homography(cli::homography::HomographyArgs),
 }
@@ -31,6 +32,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cli::run::run_simulate_cmd(a),
         Command::Replay(a) => cli::run::run_replay_cmd(a),
         Command::Import(a) => cli::import::run(a),
+        Command::Accuracy(a) => cli::accuracy::run(a),
         Command::Track(a) => cli::track::run(a),
         Command::Homography(a) => cli::homography::run(a),
     };

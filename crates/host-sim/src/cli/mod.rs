@@ -14,6 +14,7 @@ macro_rules! outln {
     }};
 }
 
+pub mod accuracy;
 pub mod homography;
 pub mod import;
 pub mod run;
