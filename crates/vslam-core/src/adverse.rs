@@ -2,13 +2,18 @@
 //! weight is lowered there before it misleads the estimate again (seed: the
 //! semantic information extractor and the weighting-factor component).
 //!
-//! Events (slip, outlier, blank, stuck readings) are recorded per sensor in a
-//! fixed grid of position cells (`W x H` cells of `cell_size` metres; positions
-//! beyond the grid wrap around, so the memory stays bounded) and time slots
-//! (`SLOTS` slots of `slot_ns`, cycling: with a 6 h slot and 4 slots, the slot
-//! is the quarter of the day). Each cell keeps a decaying event level in
-//! fixed point (`1.0` event = 256); levels decay by `decay_factor` per
-//! `decay_period_ns`. A sensor's weight in a cell is
+//! Events (slip, outlier, blank, stuck readings) are recorded per sensor by
+//! position cell (`cell_size` metres; cells are addressed by their signed
+//! integer column and row, so places far apart never share a cell: at
+//! 0.25 m the address covers +-500,000 km) and time slot (`SLOTS` slots of
+//! `slot_ns`, cycling: with a 6 h slot and 4 slots, the slot is the quarter
+//! of the day). The map is sparse: only cells with events are kept, at most
+//! `CELLS` of them, in a fixed-capacity table (no heap); recording into a
+//! new cell when the table is full evicts the least recently used cell (the
+//! one whose latest event is oldest), counted in
+//! [`AdverseMemory::evicted`]. Each cell keeps a decaying event level per
+//! sensor and slot in fixed point (`1.0` event = 256); levels decay by
+//! `decay_factor` per `decay_period_ns`. A sensor's weight in a cell is
 //! `1 / (1 + weight_per_event * max(0, events - 1))`: a single event is
 //! chance, repeated events lower the weight.
 //!
@@ -157,6 +162,8 @@ pub enum AdverseError {
     ShapeMismatch,
     /// The checksum does not match the contents.
     BadChecksum,
+    /// The record's cells are more than the capacity, or one cell twice.
+    BadCells,
 }
 
 impl fmt::Display for AdverseError {
@@ -170,6 +177,7 @@ impl fmt::Display for AdverseError {
             AdverseError::UnsupportedVersion(v) => write!(f, "unsupported record version {v}"),
             AdverseError::ShapeMismatch => f.write_str("record grid shape mismatch"),
             AdverseError::BadChecksum => f.write_str("record checksum mismatch"),
+            AdverseError::BadCells => f.write_str("record cells over capacity or repeated"),
         }
     }
 }
@@ -178,17 +186,35 @@ impl core::error::Error for AdverseError {}
 
 /// Magic bytes at the start of a record.
 pub const MAGIC: [u8; 4] = *b"TRAM";
-/// The record version this code writes and reads.
-pub const VERSION: u8 = 1;
-const HEADER_LEN: usize = 4 + 4 + 8 + 28 + 8;
+/// The record version this code writes and reads (2: the sparse map).
+pub const VERSION: u8 = 2;
+const HEADER_LEN: usize = 4 + 4 + 8 + 28 + 8 + 8;
 const TALLY_LEN: usize = SensorKind::COUNT * AdverseKind::COUNT * 4;
 const ONE_EVENT: f32 = 256.0;
 
-/// Bounded per-sensor event memory over a `W x H` grid and `SLOTS` time slots.
+/// One cell of the sparse map: its address, its levels per sensor and
+/// slot, and the time of its latest event (for least-recently-used
+/// eviction).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Cell<const SLOTS: usize> {
+    ix: i32,
+    iy: i32,
+    last: Timestamp,
+    levels: [[u16; SLOTS]; SensorKind::COUNT],
+}
+
+impl<const SLOTS: usize> Cell<SLOTS> {
+    /// Bytes of one cell in the record.
+    const RECORD_LEN: usize = 4 + 4 + 8 + 2 * SensorKind::COUNT * SLOTS;
+}
+
+/// Bounded per-sensor event memory: a sparse map of at most `CELLS` cells
+/// with `SLOTS` time slots each.
 #[derive(Clone, Debug, PartialEq)]
-pub struct AdverseMemory<const W: usize, const H: usize, const SLOTS: usize> {
+pub struct AdverseMemory<const CELLS: usize, const SLOTS: usize> {
     params: AdverseParams,
-    levels: [[[[u16; SLOTS]; H]; W]; SensorKind::COUNT],
+    cells: heapless::Vec<Cell<SLOTS>, CELLS>,
+    evicted: u32,
     tallies: [[u32; AdverseKind::COUNT]; SensorKind::COUNT],
     decayed_to: Option<Timestamp>,
 }
@@ -196,27 +222,27 @@ pub struct AdverseMemory<const W: usize, const H: usize, const SLOTS: usize> {
 /// A cell and slot address.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CellSlot {
-    /// Column (x), `0..W`.
-    pub ix: usize,
-    /// Row (y), `0..H`.
-    pub iy: usize,
+    /// Column (x): `floor(x / cell_size)`, saturated to `i32`.
+    pub ix: i32,
+    /// Row (y): `floor(y / cell_size)`, saturated to `i32`.
+    pub iy: i32,
     /// Time slot, `0..SLOTS`.
     pub slot: usize,
 }
 
-impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLOTS> {
+impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
     /// Bytes of the exported record.
-    pub const RECORD_LEN: usize =
-        HEADER_LEN + TALLY_LEN + 2 * SensorKind::COUNT * W * H * SLOTS + 4;
+    pub const RECORD_LEN: usize = HEADER_LEN + TALLY_LEN + CELLS * Cell::<SLOTS>::RECORD_LEN + 4;
 
     /// An empty memory.
     pub fn new(params: AdverseParams) -> Result<Self, AdverseError> {
-        if !params.is_valid() || W == 0 || H == 0 || SLOTS == 0 {
+        if !params.is_valid() || CELLS == 0 || SLOTS == 0 || CELLS > u16::MAX as usize {
             return Err(AdverseError::BadParams);
         }
         Ok(AdverseMemory {
             params,
-            levels: [[[[0; SLOTS]; H]; W]; SensorKind::COUNT],
+            cells: heapless::Vec::new(),
+            evicted: 0,
             tallies: [[0; AdverseKind::COUNT]; SensorKind::COUNT],
             decayed_to: None,
         })
@@ -227,16 +253,24 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         &self.params
     }
 
+    /// Cells with events kept now (at most `CELLS`).
+    pub fn cells(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Cells evicted to make room for new ones, ever.
+    pub fn evicted(&self) -> u32 {
+        self.evicted
+    }
+
     /// The cell and slot of a position (metres, world) and time.
     pub fn cell_slot(&self, p: &Vec2, t: Timestamp) -> Result<CellSlot, AdverseError> {
         if !(p.x.is_finite() && p.y.is_finite()) {
             return Err(AdverseError::NonFinitePosition);
         }
-        let cx = libm::floorf(p.x / self.params.cell_size);
-        let cy = libm::floorf(p.y / self.params.cell_size);
-        // Saturating float-to-int casts; wrap onto the grid.
-        let ix = (cx as i64).rem_euclid(W as i64) as usize;
-        let iy = (cy as i64).rem_euclid(H as i64) as usize;
+        // Saturating float-to-int casts: no wrap onto other cells.
+        let ix = libm::floorf(p.x / self.params.cell_size) as i32;
+        let iy = libm::floorf(p.y / self.params.cell_size) as i32;
         let slot = ((t.0 / self.params.slot_ns) % SLOTS as u64) as usize;
         Ok(CellSlot { ix, iy, slot })
     }
@@ -258,11 +292,52 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
             return;
         }
         let f = libm::powf(self.params.decay_factor, periods.min(1 << 20) as f32);
-        for v in self.levels.iter_mut().flatten().flatten().flatten() {
-            *v = (f32::from(*v) * f) as u16;
+        for c in self.cells.iter_mut() {
+            for v in c.levels.iter_mut().flatten() {
+                *v = (f32::from(*v) * f) as u16;
+            }
         }
         let step = periods.saturating_mul(self.params.decay_period_ns);
         self.decayed_to = d.checked_add_nanos(step).or(Some(now));
+    }
+
+    fn find(&self, cs: CellSlot) -> Option<&Cell<SLOTS>> {
+        self.cells.iter().find(|c| c.ix == cs.ix && c.iy == cs.iy)
+    }
+
+    /// The cell at `cs`, made (evicting the least recently used one when the
+    /// table is full) if there is none.
+    fn find_or_make(&mut self, cs: CellSlot, t: Timestamp) -> Option<&mut Cell<SLOTS>> {
+        let at = match self
+            .cells
+            .iter()
+            .position(|c| c.ix == cs.ix && c.iy == cs.iy)
+        {
+            Some(i) => i,
+            None => {
+                let fresh = Cell {
+                    ix: cs.ix,
+                    iy: cs.iy,
+                    last: t,
+                    levels: [[0; SLOTS]; SensorKind::COUNT],
+                };
+                match self.cells.push(fresh) {
+                    Ok(()) => self.cells.len().checked_sub(1)?,
+                    Err(fresh) => {
+                        let oldest = self
+                            .cells
+                            .iter()
+                            .enumerate()
+                            .min_by_key(|(_, c)| c.last)
+                            .map(|(i, _)| i)?;
+                        *self.cells.get_mut(oldest)? = fresh;
+                        self.evicted = self.evicted.saturating_add(1);
+                        oldest
+                    }
+                }
+            }
+        };
+        self.cells.get_mut(at)
     }
 
     /// Records one event of `kind` for `sensor` at position `p` (world, metres) and time `t`.
@@ -275,8 +350,15 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
     ) -> Result<(), AdverseError> {
         let cs = self.cell_slot(p, t)?;
         self.decay_to(t);
-        if let Some(v) = self.level_mut(sensor, cs) {
-            *v = v.saturating_add(ONE_EVENT as u16);
+        if let Some(cell) = self.find_or_make(cs, t) {
+            cell.last = cell.last.max(t);
+            if let Some(v) = cell
+                .levels
+                .get_mut(sensor as usize)
+                .and_then(|l| l.get_mut(cs.slot))
+            {
+                *v = v.saturating_add(ONE_EVENT as u16);
+            }
         }
         if let Some(c) = self
             .tallies
@@ -288,25 +370,15 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         Ok(())
     }
 
-    fn level_mut(&mut self, sensor: SensorKind, cs: CellSlot) -> Option<&mut u16> {
-        self.levels
-            .get_mut(sensor as usize)?
-            .get_mut(cs.ix)?
-            .get_mut(cs.iy)?
-            .get_mut(cs.slot)
-    }
-
     /// Decayed event count of `sensor` at `p` and `t`.
     pub fn events(&self, sensor: SensorKind, p: &Vec2, t: Timestamp) -> f32 {
         let Ok(cs) = self.cell_slot(p, t) else {
             return 0.0;
         };
         let level = self
-            .levels
-            .get(sensor as usize)
-            .and_then(|g| g.get(cs.ix))
-            .and_then(|g| g.get(cs.iy))
-            .and_then(|g| g.get(cs.slot))
+            .find(cs)
+            .and_then(|c| c.levels.get(sensor as usize))
+            .and_then(|l| l.get(cs.slot))
             .copied()
             .unwrap_or(0);
         let periods = self.periods_since_decay(t).min(1 << 20);
@@ -330,11 +402,13 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
     }
 
     /// Writes the record into `out` (at least [`Self::RECORD_LEN`] bytes);
-    /// returns the bytes written.
+    /// returns the bytes written. The cells are written in table order,
+    /// the unused ones zero.
     pub fn export(&self, out: &mut [u8]) -> Result<usize, AdverseError> {
         let out = out
             .get_mut(..Self::RECORD_LEN)
             .ok_or(AdverseError::BufferTooSmall)?;
+        out.fill(0);
         let mut w = Writer { buf: out, at: 0 };
         w.put(&MAGIC);
         w.put(&[
@@ -343,9 +417,9 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
             AdverseKind::COUNT as u8,
             0,
         ]);
-        w.put(&(W as u16).to_le_bytes());
-        w.put(&(H as u16).to_le_bytes());
+        w.put(&(CELLS as u16).to_le_bytes());
         w.put(&(SLOTS as u16).to_le_bytes());
+        w.put(&(self.cells.len() as u16).to_le_bytes());
         w.put(&0u16.to_le_bytes());
         w.put(&self.params.cell_size.to_le_bytes());
         w.put(&self.params.slot_ns.to_le_bytes());
@@ -353,21 +427,28 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         w.put(&self.params.decay_factor.to_le_bytes());
         w.put(&self.params.weight_per_event.to_le_bytes());
         w.put(&self.decayed_to.map_or(u64::MAX, |t| t.0).to_le_bytes());
+        w.put(&u64::from(self.evicted).to_le_bytes());
         for c in self.tallies.iter().flatten() {
             w.put(&c.to_le_bytes());
         }
-        for v in self.levels.iter().flatten().flatten().flatten() {
-            w.put(&v.to_le_bytes());
+        for c in self.cells.iter() {
+            w.put(&c.ix.to_le_bytes());
+            w.put(&c.iy.to_le_bytes());
+            w.put(&c.last.0.to_le_bytes());
+            for v in c.levels.iter().flatten() {
+                w.put(&v.to_le_bytes());
+            }
         }
-        let body_len = w.at;
+        let body_len = Self::RECORD_LEN - 4;
         let crc = crc32fast::hash(w.buf.get(..body_len).unwrap_or(&[]));
+        w.at = body_len;
         w.put(&crc.to_le_bytes());
         Ok(w.at)
     }
 
     /// Rebuilds a memory from a record written by [`Self::export`]. The
-    /// checks run in order: magic, version, grid shape, length, checksum,
-    /// settings.
+    /// checks run in order: magic, version, shape (capacity, slots), length,
+    /// checksum, settings, cells (count within the capacity, no cell twice).
     pub fn restore(bytes: &[u8]) -> Result<Self, AdverseError> {
         let mut r = Reader { buf: bytes, at: 0 };
         if r.take::<4>().ok_or(AdverseError::TooShort)? != MAGIC {
@@ -377,15 +458,14 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         if version != VERSION {
             return Err(AdverseError::UnsupportedVersion(version));
         }
-        let w = r.u16().ok_or(AdverseError::TooShort)?;
-        let h = r.u16().ok_or(AdverseError::TooShort)?;
-        let s = r.u16().ok_or(AdverseError::TooShort)?;
+        let capacity = r.u16().ok_or(AdverseError::TooShort)?;
+        let slots = r.u16().ok_or(AdverseError::TooShort)?;
+        let used = r.u16().ok_or(AdverseError::TooShort)?;
         let _ = r.u16().ok_or(AdverseError::TooShort)?;
         let shape_ok = usize::from(sensors) == SensorKind::COUNT
             && usize::from(kinds) == AdverseKind::COUNT
-            && usize::from(w) == W
-            && usize::from(h) == H
-            && usize::from(s) == SLOTS;
+            && usize::from(capacity) == CELLS
+            && usize::from(slots) == SLOTS;
         if !shape_ok {
             return Err(AdverseError::ShapeMismatch);
         }
@@ -409,11 +489,32 @@ impl<const W: usize, const H: usize, const SLOTS: usize> AdverseMemory<W, H, SLO
         let mut m = AdverseMemory::new(params)?;
         let decayed = r.u64().ok_or(AdverseError::TooShort)?;
         m.decayed_to = (decayed != u64::MAX).then_some(Timestamp(decayed));
+        m.evicted = u32::try_from(r.u64().ok_or(AdverseError::TooShort)?).unwrap_or(u32::MAX);
         for c in m.tallies.iter_mut().flatten() {
             *c = r.u32().ok_or(AdverseError::TooShort)?;
         }
-        for v in m.levels.iter_mut().flatten().flatten().flatten() {
-            *v = r.u16().ok_or(AdverseError::TooShort)?;
+        if usize::from(used) > CELLS {
+            return Err(AdverseError::BadCells);
+        }
+        for _ in 0..used {
+            let ix = r.i32().ok_or(AdverseError::TooShort)?;
+            let iy = r.i32().ok_or(AdverseError::TooShort)?;
+            let last = Timestamp(r.u64().ok_or(AdverseError::TooShort)?);
+            let mut levels = [[0u16; SLOTS]; SensorKind::COUNT];
+            for v in levels.iter_mut().flatten() {
+                *v = r.u16().ok_or(AdverseError::TooShort)?;
+            }
+            if m.cells.iter().any(|c| c.ix == ix && c.iy == iy) {
+                return Err(AdverseError::BadCells);
+            }
+            m.cells
+                .push(Cell {
+                    ix,
+                    iy,
+                    last,
+                    levels,
+                })
+                .map_err(|_| AdverseError::BadCells)?;
         }
         Ok(m)
     }
@@ -451,6 +552,9 @@ impl Reader<'_> {
     }
     fn u32(&mut self) -> Option<u32> {
         self.take().map(u32::from_le_bytes)
+    }
+    fn i32(&mut self) -> Option<i32> {
+        self.take().map(i32::from_le_bytes)
     }
     fn u64(&mut self) -> Option<u64> {
         self.take().map(u64::from_le_bytes)

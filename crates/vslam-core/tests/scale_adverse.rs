@@ -1,12 +1,13 @@
 //! Adverse-event memory: repeated events lower a sensor's weight in that
-//! cell and time slot only, levels decay, and the byte record round-trips
-//! with typed errors for corrupt data.
+//! cell and time slot only, places far apart never share a cell, the least
+//! recently used cell makes room when the map is full, levels decay, and the
+//! byte record round-trips with typed errors for corrupt data.
 
 use vslam_core::Timestamp;
 use vslam_core::adverse::{AdverseError, AdverseKind, AdverseMemory, AdverseParams, SensorKind};
 use vslam_core::geometry::Vec2;
 
-type M = AdverseMemory<8, 8, 4>;
+type M = AdverseMemory<16, 4>;
 const HOUR: u64 = 3600 * 1_000_000_000;
 
 fn params() -> AdverseParams {
@@ -52,8 +53,15 @@ fn repeated_events_lower_the_weight_there_only() {
     );
     assert_eq!(m.tally(SensorKind::Wheel, AdverseKind::Slip), 4);
     assert_eq!(m.tally(SensorKind::Wheel, AdverseKind::Stuck), 0);
-    // Far positions wrap onto the grid (bounded memory): 8 cells of 0.5 m = 4 m.
-    assert!(m.weight(SensorKind::Wheel, &Vec2::new(1.2 + 4.0, 0.7 - 8.0), t) < 1.0);
+    // Places far apart never share a cell (no wrap).
+    assert_eq!(
+        m.weight(SensorKind::Wheel, &Vec2::new(1.2 + 4.0, 0.7 - 8.0), t),
+        1.0
+    );
+    assert_eq!(
+        m.weight(SensorKind::Wheel, &Vec2::new(1.2 + 8.0, 0.7), t),
+        1.0
+    );
     assert_eq!(
         m.record(
             SensorKind::Wheel,
@@ -111,7 +119,7 @@ fn record_round_trips_and_corruption_is_typed() {
     let n = m.export(&mut buf).unwrap();
     assert_eq!(n, M::RECORD_LEN);
     assert_eq!(&buf[..4], b"TRAM");
-    assert_eq!(buf[4], 1, "version");
+    assert_eq!(buf[4], 2, "version");
     let back = M::restore(&buf[..n]).unwrap();
     assert_eq!(back, m);
 
@@ -121,20 +129,104 @@ fn record_round_trips_and_corruption_is_typed() {
     bad[0] = b'X';
     assert_eq!(M::restore(&bad), Err(AdverseError::BadMagic));
     let mut bad = buf.clone();
-    bad[4] = 2;
-    assert_eq!(M::restore(&bad), Err(AdverseError::UnsupportedVersion(2)));
+    bad[4] = 1;
+    assert_eq!(M::restore(&bad), Err(AdverseError::UnsupportedVersion(1)));
     let mut bad = buf.clone();
     bad[100] ^= 1;
     assert_eq!(M::restore(&bad), Err(AdverseError::BadChecksum));
-    // Another grid shape is refused as such.
+    // Another shape is refused as such.
     assert_eq!(
-        AdverseMemory::<8, 8, 3>::restore(&buf),
+        AdverseMemory::<16, 3>::restore(&buf),
         Err(AdverseError::ShapeMismatch)
     );
     assert_eq!(
-        AdverseMemory::<4, 8, 4>::restore(&buf),
+        AdverseMemory::<8, 4>::restore(&buf),
         Err(AdverseError::ShapeMismatch)
     );
+    // More cells than the capacity, resealed with a valid checksum: refused.
+    let mut bad = buf.clone();
+    bad[12..14].copy_from_slice(&17u16.to_le_bytes());
+    let crc = crc32fast::hash(&bad[..M::RECORD_LEN - 4]);
+    bad[M::RECORD_LEN - 4..M::RECORD_LEN].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(M::restore(&bad), Err(AdverseError::BadCells));
+}
+
+/// Cell centres of a 30 m x 30 m home at 0.25 m cells, row by row.
+fn home_cells() -> impl Iterator<Item = Vec2> {
+    (0..120).flat_map(|iy| {
+        (0..120).map(move |ix| Vec2::new(0.125 + 0.25 * ix as f32, 0.125 + 0.25 * iy as f32))
+    })
+}
+
+#[test]
+fn a_30_m_home_at_quarter_metre_cells_never_aliases() {
+    // Two events in every one of the 14,400 cells, one cell at a time, into
+    // a map with room for all of them: each cell then holds exactly its own
+    // two events, none of a neighbour's or of a cell 8 m (or any) away.
+    type Big = AdverseMemory<14_400, 1>;
+    let params = AdverseParams {
+        cell_size: 0.25,
+        ..params()
+    };
+    let mut m = Box::new(Big::new(params).unwrap());
+    for (k, p) in home_cells().enumerate() {
+        for _ in 0..2 {
+            m.record(
+                SensorKind::Wheel,
+                AdverseKind::Slip,
+                &p,
+                Timestamp(k as u64),
+            )
+            .unwrap();
+        }
+    }
+    assert_eq!(m.cells(), 14_400);
+    assert_eq!(m.evicted(), 0);
+    let t = Timestamp(14_400);
+    for p in home_cells() {
+        assert!(
+            (m.events(SensorKind::Wheel, &p, t) - 2.0).abs() < 1e-3,
+            "{p:?}"
+        );
+    }
+    // Just outside the home: nothing.
+    assert_eq!(m.events(SensorKind::Wheel, &Vec2::new(-0.1, 15.0), t), 0.0);
+    assert_eq!(m.events(SensorKind::Wheel, &Vec2::new(30.1, 15.0), t), 0.0);
+}
+
+#[test]
+fn a_full_map_evicts_the_least_recently_used_cell() {
+    type Small = AdverseMemory<3, 1>;
+    let mut m = Small::new(params()).unwrap();
+    let (a, b, c, d) = (
+        Vec2::new(0.1, 0.1),
+        Vec2::new(5.1, 0.1),
+        Vec2::new(10.1, 0.1),
+        Vec2::new(15.1, 0.1),
+    );
+    let ev = |m: &mut Small, p: &Vec2, t: u64| {
+        m.record(SensorKind::Flow, AdverseKind::Blank, p, Timestamp(t))
+            .unwrap();
+    };
+    ev(&mut m, &a, 1);
+    ev(&mut m, &b, 2);
+    ev(&mut m, &c, 3);
+    // `a` is used again: `b` is now the least recently used.
+    ev(&mut m, &a, 4);
+    ev(&mut m, &d, 5);
+    assert_eq!((m.cells(), m.evicted()), (3, 1));
+    let t = Timestamp(6);
+    let events = |m: &Small, p: &Vec2| m.events(SensorKind::Flow, p, t);
+    assert!((events(&m, &a) - 2.0).abs() < 1e-3);
+    assert_eq!(events(&m, &b), 0.0, "the least recently used cell is gone");
+    assert!((events(&m, &c) - 1.0).abs() < 1e-3);
+    assert!((events(&m, &d) - 1.0).abs() < 1e-3);
+    // The tallies keep every event, evicted or not.
+    assert_eq!(m.tally(SensorKind::Flow, AdverseKind::Blank), 5);
+    // The record keeps the eviction count and the cells.
+    let mut buf = vec![0u8; Small::RECORD_LEN];
+    m.export(&mut buf).unwrap();
+    assert_eq!(Small::restore(&buf).unwrap(), m);
 }
 
 #[test]

@@ -19,8 +19,9 @@ pub const FLOW_WINDOW: usize = 128;
 pub const IMU_WINDOW: usize = 128;
 /// Scale values in the running median.
 pub const SCALE_WINDOW: usize = 15;
-/// The pipeline's adverse-event memory: 16 x 16 cells, 4 time slots.
-pub type PipelineMemory = AdverseMemory<16, 16, 4>;
+/// The pipeline's adverse-event memory: up to 256 cells with events (the
+/// least recently used evicted beyond), 4 time slots each; 48 bytes a cell.
+pub type PipelineMemory = AdverseMemory<256, 4>;
 
 /// Which scale multiplies each frame's `t/d` in the composition.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
