@@ -225,14 +225,21 @@ pub struct ReplayOptions {
     /// (fewest inliers carried into the next frame before corners are
     /// detected afresh); `None` for its default.
     pub redetect_below: Option<usize>,
+    /// Refuse a log whose samples hold values that parse but are bad (NaN,
+    /// infinite, duplicated or out-of-order time stamps) with exit 2, as
+    /// syntax errors are; otherwise they reach the estimator, which rejects
+    /// and counts them ([`crate::asl::BadSamples`]).
+    pub strict: bool,
 }
 
 impl Default for ReplayOptions {
-    /// The surface model on, the camera path's defaults.
+    /// The surface model on, the camera path's defaults, bad samples passed
+    /// to the estimator.
     fn default() -> Self {
         ReplayOptions {
             surface_model: true,
             redetect_below: None,
+            strict: false,
         }
     }
 }
@@ -276,7 +283,12 @@ pub fn run_replay_with(
     progress: bool,
     options: ReplayOptions,
 ) -> Result<ReplayOutput, CliError> {
-    let ds = crate::asl::read_dataset(dataset)?;
+    let bad = if options.strict {
+        crate::asl::BadSamples::Refuse
+    } else {
+        crate::asl::BadSamples::PassOn
+    };
+    let ds = crate::asl::read_dataset_with(dataset, bad)?;
     let scene = crate::plot::Scene::read(dataset)?;
     let r = replay_with(&ds, dataset, progress, options)?;
     write_outputs(out, &r, ds.groundtruth.as_deref(), scene.as_ref())?;
