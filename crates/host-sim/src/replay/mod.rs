@@ -11,7 +11,7 @@ mod config;
 mod report;
 mod run;
 
-pub use config::robot_description;
+pub use config::{imu_rate_hz, robot_description};
 pub use report::{summary_table, write_outputs};
 
 use crate::asl::Dataset;
