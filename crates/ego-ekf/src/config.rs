@@ -180,6 +180,28 @@ pub struct InitConfig {
     pub gyro_bias_std: f32,
     /// Initial gravity standard deviation, m/s^2.
     pub gravity_std: f32,
+    /// Samples without a still start after which the filter starts moving
+    /// (0: never; see [`crate::init`]).
+    pub moving_samples: u16,
+    /// Largest deviation of the moving samples' mean specific force from
+    /// gravity for a moving start, m/s^2.
+    pub moving_max_accel_deviation: f32,
+    /// Initial attitude standard deviation (roll, pitch) of a moving start, rad.
+    pub moving_tilt_std: f32,
+    /// Initial velocity standard deviation of a moving start, m/s.
+    pub moving_velocity_std: f32,
+}
+
+impl InitConfig {
+    /// The initial uncertainty of a moving start: tilt and velocity from
+    /// [`InitConfig::moving_tilt_std`] and [`InitConfig::moving_velocity_std`].
+    pub fn moving(&self) -> InitConfig {
+        InitConfig {
+            tilt_std: self.moving_tilt_std,
+            velocity_std: self.moving_velocity_std,
+            ..*self
+        }
+    }
 }
 
 impl Default for InitConfig {
@@ -197,6 +219,11 @@ impl Default for InitConfig {
             // Gravity's direction defines the world's z; only its size is
             // uncertain, and little.
             gravity_std: 0.001,
+            // 0.5 s at 250 Hz; 3 degrees; up to 1 m/s.
+            moving_samples: 125,
+            moving_max_accel_deviation: 0.5,
+            moving_tilt_std: 0.05,
+            moving_velocity_std: 1.0,
         }
     }
 }
@@ -462,7 +489,8 @@ impl FilterConfig {
     /// The configuration for an IMU sampled at `rate_hz` (30 to 1000 Hz and
     /// beyond), from one whose sample counts are written for
     /// [`NOMINAL_IMU_RATE_HZ`] (as [`FilterConfig::default`]'s are): the
-    /// still-sample initialisation ([`InitConfig::samples`]), the still
+    /// still-sample initialisation ([`InitConfig::samples`]), the moving
+    /// start's wait ([`InitConfig::moving_samples`]), the still
     /// detector ([`ZuptConfig::still_samples`]), the ZUPT and floor update
     /// intervals ([`ZuptConfig::every`], [`FloorConfig::every`]) keep their
     /// durations (at least one sample each), and the largest IMU step
@@ -474,6 +502,9 @@ impl FilterConfig {
             return self;
         }
         self.init.samples = samples_at(self.init.samples, rate_hz);
+        if self.init.moving_samples > 0 {
+            self.init.moving_samples = samples_at(self.init.moving_samples, rate_hz);
+        }
         self.zupt.still_samples = samples_at(self.zupt.still_samples, rate_hz);
         self.zupt.every = samples_at(self.zupt.every, rate_hz);
         if let Some(f) = self.floor.as_mut() {

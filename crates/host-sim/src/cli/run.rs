@@ -111,7 +111,8 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
         {
             "no IMU: the EKF does not run"
         } else {
-            "the EKF never started (it starts on 50 still IMU samples)"
+            "the EKF never started (it starts on 0.2 s of still IMU samples, or after 0.5 s \
+             of driving at a near-constant speed)"
         };
         println!("note: {why}; the wheel-only trajectory is the estimate");
     }
