@@ -92,6 +92,10 @@ fn the_excerpt_replays_with_wheel_rates_and_its_terrain() {
     );
     let text = String::from_utf8_lossy(&rep.stdout);
     assert!(text.contains("terrain: SNOW"), "{text}");
+    assert!(
+        text.contains("EKF: IMU at 100.0 Hz; started 0.51 s after the first IMU sample"),
+        "{text}"
+    );
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("out/report.json")).unwrap()).unwrap();
     assert_eq!(report["labels"]["terrain"], "SNOW");

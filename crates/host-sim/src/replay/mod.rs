@@ -42,6 +42,9 @@ pub struct ReplayOutput {
     pub outcomes: Outcomes,
     /// The filter's health after every IMU step.
     pub health: Health,
+    /// The IMU's rate the filter was set for ([`imu_rate_hz`]), Hz, and
+    /// its first sample's time stamp; `None` without an IMU.
+    pub imu: Option<(f32, Timestamp)>,
 }
 
 /// The filter's health, checked after every processed IMU sample once the

@@ -275,6 +275,22 @@ fn reasons_summary(report: &Value) -> String {
     }
 }
 
+/// The IMU's rate and when the EKF started (its first pose), from the
+/// IMU's first sample; empty without an IMU.
+fn start_summary(r: &ReplayOutput) -> String {
+    let Some((hz, t0)) = r.imu else {
+        return String::new();
+    };
+    let start = match r.ekf.first().and_then(|p| p.t.nanos_since(t0)) {
+        Some(ns) => format!(
+            "started {:.2} s after the first IMU sample",
+            ns as f64 * 1e-9
+        ),
+        None => "never started".to_string(),
+    };
+    format!("EKF: IMU at {hz:.1} Hz; {start}\n")
+}
+
 /// Jolt events by kind.
 fn events_summary(report: &Value) -> String {
     let events = report["events"]
@@ -303,5 +319,6 @@ pub fn summary_table(r: &ReplayOutput) -> String {
         + &decisions_summary(&r.report)
         + &counts_summary(&r.report)
         + &reasons_summary(&r.report)
+        + &start_summary(r)
         + &events_summary(&r.report)
 }

@@ -412,7 +412,13 @@ pub(super) fn run(
         ),
         None => Vec::new(),
     };
+    let imu = super::config::imu_rate_hz(ds).zip(
+        ds.imu
+            .as_ref()
+            .and_then(|(_, v)| v.iter().map(|s| s.t).min()),
+    );
     Ok(ReplayOutput {
+        imu,
         ekf: c.ekf,
         vslam: c.vslam,
         wheel_only,
