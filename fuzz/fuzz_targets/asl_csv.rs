@@ -2,11 +2,17 @@
 //! byte picks the sensor folder (IMU, wheels, flow, camera, segmentation,
 //! ground truth), the rest is that folder's `data.csv` (for `wheel0`,
 //! counts or, after the rates header, the wheel angular-rate variant); the `sensor.yaml`
-//! next to it is valid. A read either gives strictly increasing time stamps
-//! and finite values, or an exit-2 error that names the file.
+//! next to it is valid. The first byte also picks how bad sample values are
+//! read (`BadSamples`): refused, a read either gives strictly increasing
+//! time stamps and finite values, or an exit-2 error that names the file;
+//! passed on, the sample streams keep every row in file order (NaN,
+//! infinities, any time order), the ground truth and image lists are still
+//! finite and increasing, and errors are exit 2 naming the file.
 #![no_main]
 
-use host_sim::asl::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta, read_dataset};
+use host_sim::asl::{
+    BadSamples, CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta, read_dataset_with,
+};
 use libfuzzer_sys::fuzz_target;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -108,26 +114,40 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let k = usize::from(which) % SENSORS.len();
+    let bad = if (usize::from(which) / SENSORS.len()) % 2 == 0 {
+        BadSamples::Refuse
+    } else {
+        BadSamples::PassOn
+    };
+    let strict = bad == BadSamples::Refuse;
     let root = &roots()[k];
     let path = root.join("mav0").join(SENSORS[k]).join("data.csv");
     std::fs::write(&path, csv).unwrap();
-    match read_dataset(root) {
+    match read_dataset_with(root, bad) {
         Ok(ds) => {
-            if let Some((_, v)) = &ds.imu {
+            if let Some((_, v)) = &ds.imu
+                && strict
+            {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
                 assert!(
                     v.iter()
                         .all(|s| s.gyro.iter().chain(&s.accel).all(|x| !x.is_nan()))
                 );
             }
-            if let Some((_, v)) = &ds.wheel {
+            if let Some((_, v)) = &ds.wheel
+                && strict
+            {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
             }
-            if let Some((_, v)) = &ds.wheel_rates {
+            if let Some((_, v)) = &ds.wheel_rates
+                && strict
+            {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
                 assert!(v.iter().all(|s| s.left.is_finite() && s.right.is_finite()));
             }
-            if let Some((_, v)) = &ds.flow {
+            if let Some((_, v)) = &ds.flow
+                && strict
+            {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
             }
             if let Some((_, v)) = &ds.cam {

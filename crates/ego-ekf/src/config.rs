@@ -180,6 +180,28 @@ pub struct InitConfig {
     pub gyro_bias_std: f32,
     /// Initial gravity standard deviation, m/s^2.
     pub gravity_std: f32,
+    /// Samples without a still start after which the filter starts moving
+    /// (0: never; see [`crate::init`]).
+    pub moving_samples: u16,
+    /// Largest deviation of the moving samples' mean specific force from
+    /// gravity for a moving start, m/s^2.
+    pub moving_max_accel_deviation: f32,
+    /// Initial attitude standard deviation (roll, pitch) of a moving start, rad.
+    pub moving_tilt_std: f32,
+    /// Initial velocity standard deviation of a moving start, m/s.
+    pub moving_velocity_std: f32,
+}
+
+impl InitConfig {
+    /// The initial uncertainty of a moving start: tilt and velocity from
+    /// [`InitConfig::moving_tilt_std`] and [`InitConfig::moving_velocity_std`].
+    pub fn moving(&self) -> InitConfig {
+        InitConfig {
+            tilt_std: self.moving_tilt_std,
+            velocity_std: self.moving_velocity_std,
+            ..*self
+        }
+    }
 }
 
 impl Default for InitConfig {
@@ -197,6 +219,11 @@ impl Default for InitConfig {
             // Gravity's direction defines the world's z; only its size is
             // uncertain, and little.
             gravity_std: 0.001,
+            // 0.5 s at 250 Hz; 3 degrees; up to 1 m/s.
+            moving_samples: 125,
+            moving_max_accel_deviation: 0.5,
+            moving_tilt_std: 0.05,
+            moving_velocity_std: 1.0,
         }
     }
 }
@@ -437,7 +464,58 @@ impl Default for FilterConfig {
     }
 }
 
+/// IMU rate, Hz, that the defaults' sample counts are written for: 50 still
+/// samples are 0.2 s, a ZUPT every 10 samples every 40 ms, a floor update
+/// every 25 samples every 0.1 s ([`FilterConfig::with_imu_rate`]).
+pub const NOMINAL_IMU_RATE_HZ: f32 = 250.0;
+
+/// Smallest largest IMU step of [`FilterConfig::with_imu_rate`], ns (the
+/// default [`ImuConfig::max_dt_ns`]).
+pub const MIN_MAX_IMU_DT_NS: u64 = 20_000_000;
+
+/// Sample periods in the largest IMU step of [`FilterConfig::with_imu_rate`]:
+/// one lost sample is a step, two are a gap.
+pub const MAX_IMU_DT_PERIODS: f32 = 2.5;
+
+/// `n` samples at [`NOMINAL_IMU_RATE_HZ`] as samples at `rate_hz` (the same
+/// duration, at least one sample).
+fn samples_at(n: u16, rate_hz: f32) -> u16 {
+    let x = libm::roundf(f32::from(n) * rate_hz / NOMINAL_IMU_RATE_HZ);
+    // In range: clamped to [1, u16::MAX] before the cast.
+    x.clamp(1.0, f32::from(u16::MAX)) as u16
+}
+
 impl FilterConfig {
+    /// The configuration for an IMU sampled at `rate_hz` (30 to 1000 Hz and
+    /// beyond), from one whose sample counts are written for
+    /// [`NOMINAL_IMU_RATE_HZ`] (as [`FilterConfig::default`]'s are): the
+    /// still-sample initialisation ([`InitConfig::samples`]), the moving
+    /// start's wait ([`InitConfig::moving_samples`]), the still
+    /// detector ([`ZuptConfig::still_samples`]), the ZUPT and floor update
+    /// intervals ([`ZuptConfig::every`], [`FloorConfig::every`]) keep their
+    /// durations (at least one sample each), and the largest IMU step
+    /// ([`ImuConfig::max_dt_ns`]) is the larger of 20 ms and 2.5 sample
+    /// periods. At 250 Hz nothing changes. A rate that is not finite and
+    /// positive changes nothing either.
+    pub fn with_imu_rate(mut self, rate_hz: f32) -> Self {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return self;
+        }
+        self.init.samples = samples_at(self.init.samples, rate_hz);
+        if self.init.moving_samples > 0 {
+            self.init.moving_samples = samples_at(self.init.moving_samples, rate_hz);
+        }
+        self.zupt.still_samples = samples_at(self.zupt.still_samples, rate_hz);
+        self.zupt.every = samples_at(self.zupt.every, rate_hz);
+        if let Some(f) = self.floor.as_mut() {
+            f.every = samples_at(f.every, rate_hz);
+        }
+        let periods_ns = f64::from(MAX_IMU_DT_PERIODS) * 1.0e9 / f64::from(rate_hz);
+        // Finite and positive; the cast saturates.
+        self.imu.max_dt_ns = MIN_MAX_IMU_DT_NS.max(libm::ceil(periods_ns) as u64);
+        self
+    }
+
     /// The filter's configuration for a described robot: its IMU noise, its
     /// robot prior ([`RobotPrior::from_robot`]) and its flow sensor
     /// ([`FlowConfig::from_robot`]); every other setting of
@@ -587,6 +665,27 @@ impl FilterConfig {
 mod tests {
     use super::*;
     use vslam_core::geometry::Extrinsics;
+
+    #[test]
+    fn imu_rate_keeps_durations_and_bounds_the_step() {
+        let d = FilterConfig::default();
+        assert_eq!(d.with_imu_rate(NOMINAL_IMU_RATE_HZ), d);
+        assert_eq!(d.with_imu_rate(f32::NAN), d);
+        assert_eq!(d.with_imu_rate(0.0), d);
+        let c = d.with_imu_rate(30.0);
+        assert_eq!(c.init.samples, 6, "0.2 s at 30 Hz");
+        assert_eq!(c.zupt.still_samples, 6);
+        assert_eq!(c.zupt.every, 1);
+        assert_eq!(c.floor.map(|f| f.every), Some(3));
+        assert_eq!(c.imu.max_dt_ns, 83_333_334, "2.5 periods of 33.3 ms");
+        assert_eq!(c.check(), Ok(()));
+        let c = d.with_imu_rate(100.0);
+        assert_eq!((c.init.samples, c.zupt.every), (20, 4));
+        assert_eq!(c.imu.max_dt_ns, 25_000_000);
+        let c = d.with_imu_rate(1000.0);
+        assert_eq!((c.init.samples, c.zupt.still_samples), (200, 200));
+        assert_eq!(c.imu.max_dt_ns, MIN_MAX_IMU_DT_NS);
+    }
 
     #[test]
     fn each_sensor_config_refuses_a_zero_time_limit() {

@@ -6,7 +6,7 @@ use vslam_core::kinematics::{mid_axle, rim};
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-use crate::config::{ConfigError, FilterConfig};
+use crate::config::{ConfigError, FilterConfig, InitConfig};
 use crate::covariance;
 use crate::floor::FloorFusion;
 use crate::flow::{FlowFused, FlowFusion};
@@ -220,7 +220,7 @@ impl EgoEkf {
         self.x.q_wb = start.q_wb;
         self.x.accel_bias = start.accel_bias;
         self.x.gyro_bias = start.gyro_bias;
-        self.begin(start.t);
+        self.begin(start.t, self.config.init);
         Ok(())
     }
 
@@ -230,11 +230,16 @@ impl EgoEkf {
         self.x.q_wb = s.q_wb;
         self.x.accel_bias = Vec3::zeros();
         self.x.gyro_bias = s.gyro_bias;
-        self.begin(t);
+        let init = if s.moving {
+            self.config.init.moving()
+        } else {
+            self.config.init
+        };
+        self.begin(t, init);
     }
 
-    fn begin(&mut self, t: Timestamp) {
-        let d = covariance::initial_variances(&self.config.init, &self.config.robot);
+    fn begin(&mut self, t: Timestamp, init: InitConfig) {
+        let d = covariance::initial_variances(&init, &self.config.robot);
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
         self.clone_due = false;

@@ -1,7 +1,11 @@
 //! `data.csv` reading and writing in the ASL layout: a `#`-prefixed header
 //! line naming the columns, then one row per sample whose first column is an
-//! integer time stamp in nanoseconds. Rows must be strictly increasing in
-//! time; any malformed row is an error naming the file and the line.
+//! integer time stamp in nanoseconds. Any malformed row (a wrong column
+//! count, text that is not a number) is an error naming the file and the
+//! line. [`read_rows`] also refuses rows that do not strictly increase in
+//! time; [`read_rows_any_order`] keeps them, in file order, for a consumer
+//! that rejects and counts them itself (a sensor log's duplicated or
+//! out-of-order samples reach the estimator as they would on a robot).
 
 use crate::error::CliError;
 use std::io::Write;
@@ -35,6 +39,15 @@ impl Row {
         Ok(x)
     }
 
+    /// Field `i` parsed as an `f64`, which may be NaN or infinite (`nan`,
+    /// `inf`, `-inf` parse): the value is what the sensor reported, bad or
+    /// not; only text that is no number is an error.
+    pub fn number(&self, path: &Path, i: usize, name: &str) -> Result<f64, CliError> {
+        let s = self.field(path, i, name)?;
+        s.parse()
+            .map_err(|_| CliError::line(path, self.line, format!("{name}: `{s}` is not a number")))
+    }
+
     /// Field `i` parsed as an integer of type `T`.
     pub fn int<T: std::str::FromStr>(
         &self,
@@ -64,6 +77,16 @@ impl Row {
 /// Reads `path`, checking that every row has `columns` fields (time stamp
 /// included) and that time stamps strictly increase.
 pub fn read_rows(path: &Path, columns: usize) -> Result<Vec<Row>, CliError> {
+    read(path, columns, true)
+}
+
+/// Reads `path`, checking that every row has `columns` fields (time stamp
+/// included); the rows in file order, whatever their time stamps.
+pub fn read_rows_any_order(path: &Path, columns: usize) -> Result<Vec<Row>, CliError> {
+    read(path, columns, false)
+}
+
+fn read(path: &Path, columns: usize, increasing: bool) -> Result<Vec<Row>, CliError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::file(path, format!("cannot read: {e}")))?;
     let mut rdr = csv::ReaderBuilder::new()
@@ -97,7 +120,7 @@ pub fn read_rows(path: &Path, columns: usize) -> Result<Vec<Row>, CliError> {
             )
         })?;
         let t = Timestamp(ns);
-        if let Some(prev) = rows.last().filter(|prev| t <= prev.t) {
+        if let Some(prev) = rows.last().filter(|prev| increasing && t <= prev.t) {
             let what = if t == prev.t {
                 "duplicates"
             } else {
@@ -197,5 +220,24 @@ mod tests {
         let rows = read_rows(&p, 2).unwrap();
         let e = rows[0].f64(&p, 0, "a").unwrap_err().to_string();
         assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
+        let e = rows[0].number(&p, 0, "a").unwrap_err().to_string();
+        assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
+    }
+
+    #[test]
+    fn any_order_keeps_bad_values_and_times_but_not_bad_syntax() {
+        let p = write("any", "#t,a\n100,nan\n100,inf\n90,-inf\n95,1.5\n");
+        assert!(read_rows(&p, 2).is_err());
+        let rows = read_rows_any_order(&p, 2).unwrap();
+        let t: Vec<u64> = rows.iter().map(|r| r.t.0).collect();
+        assert_eq!(t, [100, 100, 90, 95]);
+        assert!(rows[0].number(&p, 0, "a").unwrap().is_nan());
+        assert_eq!(rows[1].number(&p, 0, "a").unwrap(), f64::INFINITY);
+        assert_eq!(rows[2].number(&p, 0, "a").unwrap(), f64::NEG_INFINITY);
+        let e = rows[0].f64(&p, 0, "a").unwrap_err().to_string();
+        assert!(e.contains("data.csv:2: a: `nan` is not finite"), "{e}");
+        let p = write("any-cols", "#t,a\n100,1\n90,2,3\n");
+        let e = read_rows_any_order(&p, 2).err().unwrap().to_string();
+        assert!(e.contains("data.csv:3: expected 2 columns, found 3"), "{e}");
     }
 }

@@ -13,6 +13,15 @@
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
+//!
+//! Syntax errors (a wrong column count, text that is not a number, a
+//! missing file) are errors naming the file and line. Sample values that
+//! parse but are bad (NaN or infinite numbers, duplicated or out-of-order
+//! time stamps in `imu0`, `wheel0`, `flow0`) are kept in file order for the
+//! estimator to reject and count, as on a robot ([`BadSamples::PassOn`]), or
+//! refused like syntax errors ([`BadSamples::Refuse`], `replay --strict`).
+//! Ground truth and image lists must always be finite and strictly
+//! increasing in time.
 //! Beside `mav0/`, an optional `labels.yaml` ([`Labels`]) says where the
 //! data came from and what it lacks.
 
@@ -116,13 +125,47 @@ impl Dataset {
     }
 }
 
+/// What [`read_dataset_with`] does with sample values that parse but are
+/// bad: NaN or infinite numbers, duplicated or out-of-order time stamps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BadSamples {
+    /// Kept, in file order, for the estimator to reject and count.
+    #[default]
+    PassOn,
+    /// Refused with an error naming the file and line.
+    Refuse,
+}
+
+impl BadSamples {
+    fn rows(self, path: &Path, columns: usize) -> Result<Vec<csvio::Row>, CliError> {
+        match self {
+            BadSamples::PassOn => csvio::read_rows_any_order(path, columns),
+            BadSamples::Refuse => csvio::read_rows(path, columns),
+        }
+    }
+
+    fn value(self, r: &csvio::Row, path: &Path, i: usize, name: &str) -> Result<f64, CliError> {
+        match self {
+            BadSamples::PassOn => r.number(path, i, name),
+            BadSamples::Refuse => r.f64(path, i, name),
+        }
+    }
+}
+
 fn sensor_dir(root: &Path, name: &str) -> Option<PathBuf> {
     let d = root.join("mav0").join(name);
     d.is_dir().then_some(d)
 }
 
-/// Reads a dataset folder (the folder that contains `mav0/`).
+/// Reads a dataset folder (the folder that contains `mav0/`), passing bad
+/// sample values on ([`BadSamples::PassOn`]).
 pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
+    read_dataset_with(root, BadSamples::PassOn)
+}
+
+/// Reads a dataset folder (the folder that contains `mav0/`), bad sample
+/// values treated as `bad` says.
+pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliError> {
     let mav0 = root.join("mav0");
     if !mav0.is_dir() {
         return Err(CliError::file(
@@ -135,10 +178,10 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         let meta = ImuMeta::read(&d.join("sensor.yaml"))?;
         let p = d.join("data.csv");
         let mut v = Vec::new();
-        for r in csvio::read_rows(&p, 7)? {
+        for r in bad.rows(&p, 7)? {
             let mut x = [0f32; 6];
             for (i, slot) in x.iter_mut().enumerate() {
-                *slot = r.f64(&p, i, IMU_COLUMNS[i])? as f32;
+                *slot = bad.value(&r, &p, i, IMU_COLUMNS[i])? as f32;
             }
             v.push(RawImuSample {
                 t: r.t,
@@ -154,11 +197,11 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         let p = d.join("data.csv");
         if csvio::first_line(&p)?.trim() == WHEEL_RATES_HEADER {
             let mut v = Vec::new();
-            for r in csvio::read_rows(&p, 3)? {
+            for r in bad.rows(&p, 3)? {
                 v.push(RawWheelRates {
                     t: r.t,
-                    left: r.f64(&p, 0, "left")? as f32,
-                    right: r.f64(&p, 1, "right")? as f32,
+                    left: bad.value(&r, &p, 0, "left")? as f32,
+                    right: bad.value(&r, &p, 1, "right")? as f32,
                 });
             }
             ds.wheel_rates = Some((meta, v));
@@ -170,7 +213,7 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
                 ));
             }
             let mut v = Vec::new();
-            for r in csvio::read_rows(&p, 3)? {
+            for r in bad.rows(&p, 3)? {
                 v.push(WheelTicks {
                     t: r.t,
                     left: r.int(&p, 0, "left")?,
@@ -184,7 +227,7 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
         let meta = FlowMeta::read(&d.join("sensor.yaml"))?;
         let p = d.join("data.csv");
         let mut v = Vec::new();
-        for r in csvio::read_rows(&p, 5)? {
+        for r in bad.rows(&p, 5)? {
             let (dx, dy) = (r.int(&p, 0, "delta_x")?, r.int(&p, 1, "delta_y")?);
             v.push(FlowSample {
                 t: r.t,
@@ -508,9 +551,34 @@ mod tests {
             format!("{WHEEL_HEADER}\n20000000,1,2\n10000000,3,4\n"),
         )
         .unwrap();
-        let e = read_dataset(&d).unwrap_err();
+        let e = read_dataset_with(&d, BadSamples::Refuse).unwrap_err();
         assert!(e.to_string().contains("wheel0/data.csv:3:"), "{e}");
         assert_eq!(e.exit_code(), 2);
+        // Passed on, the rows stay in file order for the estimator.
+        let ds = read_dataset(&d).unwrap();
+        let t: Vec<u64> = ds.wheel.unwrap().1.iter().map(|s| s.t.0).collect();
+        assert_eq!(t, [20_000_000, 10_000_000]);
+        let imu = d.join("mav0/imu0/data.csv");
+        std::fs::write(&imu, format!("{IMU_HEADER}\n4000000,nan,0,0,0,0,inf\n")).unwrap();
+        let s = read_dataset(&d).unwrap().imu.unwrap().1[0];
+        assert!(s.gyro[0].is_nan() && s.accel[2] == f32::INFINITY);
+        let e = read_dataset_with(&d, BadSamples::Refuse)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("imu0/data.csv:2: w_RS_S_x: `nan` is not finite"),
+            "{e}"
+        );
+        std::fs::write(&imu, format!("{IMU_HEADER}\n4000000,0,0,0,0,0\n")).unwrap();
+        for bad in [BadSamples::PassOn, BadSamples::Refuse] {
+            let e = read_dataset_with(&d, bad).unwrap_err();
+            assert!(
+                e.to_string()
+                    .contains("imu0/data.csv:2: expected 7 columns"),
+                "{e}"
+            );
+            assert_eq!(e.exit_code(), 2);
+        }
 
         let d = tmp("bad-yaml");
         write_dataset(&d, &sample_dataset()).unwrap();

@@ -70,8 +70,11 @@ fn faults_long_help() -> String {
                   state_groundtruth_estimate0; any may be absent, the report names what is missing), runs it \
                   through the estimator and writes DIR/ekf.tum, DIR/vslam.tum, \
                   DIR/wheel_only.tum, DIR/report.json, DIR/trajectory.svg, DIR/errors.svg and DIR/report.html. With ground truth \
-                  present it prints the summary table. Exit codes: 2 for bad input (the file and \
-                  line are named); nothing is written then."
+                  present it prints the error table; the summary (scale decisions, counts, \
+                  rejections by reason, events) always. Sample values that parse but are bad \
+                  (NaN, infinite, duplicated or out-of-order time stamps) reach the estimator, \
+                  which rejects and counts them (--strict refuses them). Exit codes: 2 for bad \
+                  input (syntax: the file and line are named); nothing is written then."
 )]
 pub struct ReplayArgs {
     /// The dataset folder (the one that contains `mav0/`).
@@ -84,12 +87,16 @@ pub struct ReplayArgs {
     /// above 200: on every frame).
     #[arg(long, value_name = "N")]
     pub redetect_below: Option<usize>,
+    /// Refuse (exit 2, naming file and line) sample values that parse but
+    /// are bad: NaN, infinite, duplicated or out-of-order time stamps.
+    /// Without it they reach the estimator, which rejects and counts them
+    /// (report.json `counts`, the summary's `rejected by reason`).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
-    if !r.errors.is_empty() {
-        print!("{}", summary_table(r));
-    }
+    print!("{}", summary_table(r));
     let missing = r.report["missing_sensors"]
         .as_array()
         .map(Vec::len)
@@ -104,7 +111,8 @@ fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
         {
             "no IMU: the EKF does not run"
         } else {
-            "the EKF never started (it starts on 50 still IMU samples)"
+            "the EKF never started (it starts on 0.2 s of still IMU samples, or after 0.5 s \
+             of driving at a near-constant speed)"
         };
         println!("note: {why}; the wheel-only trajectory is the estimate");
     }
@@ -206,6 +214,7 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 pub fn run_replay_cmd(a: ReplayArgs) -> Result<(), CliError> {
     let options = ReplayOptions {
         redetect_below: a.redetect_below,
+        strict: a.strict,
         ..ReplayOptions::default()
     };
     let r = run_replay_with(&a.dataset, &a.out, std::io::stderr().is_terminal(), options)?;

@@ -175,8 +175,29 @@ fn sensor_folder(s: MountedSensor) -> &'static str {
     }
 }
 
+/// The IMU's sample rate, Hz: from the median step between consecutive
+/// samples of `imu0` (what the log holds), or, with fewer than two
+/// increasing samples, `rate_hz` of `imu0/sensor.yaml`; `None` without an IMU.
+pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
+    let (meta, samples) = ds.imu.as_ref()?;
+    let mut steps: Vec<u64> = samples
+        .windows(2)
+        .filter_map(|w| w[1].t.nanos_since(w[0].t))
+        .filter(|&d| d > 0)
+        .collect();
+    if steps.is_empty() {
+        return Some(meta.rate_hz as f32);
+    }
+    let mid = steps.len() / 2;
+    let median = *steps.select_nth_unstable(mid).1;
+    Some((1.0e9 / median as f64) as f32)
+}
+
 /// The estimator's configuration: [`EstimatorConfig::from_robot`] on the
-/// dataset's [`robot_description`], and the surface model from `seg0`.
+/// dataset's [`robot_description`], the filter's sample counts and largest
+/// IMU step for the IMU's rate ([`imu_rate_hz`],
+/// [`FilterConfig::with_imu_rate`](traction::ego_ekf::FilterConfig::with_imu_rate)),
+/// and the surface model from `seg0`.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
@@ -185,6 +206,9 @@ pub(super) fn estimator_config(
     let robot = robot_description(ds, root)?;
     let mut config = EstimatorConfig::from_robot(&robot)
         .map_err(|e| CliError::file(root, format!("configuration: {e}")))?;
+    if let Some(hz) = imu_rate_hz(ds) {
+        config.filter = config.filter.with_imu_rate(hz);
+    }
     let wheel_type_name = wheel_meta(ds).map_or("", |m| m.wheel_type.as_str());
     config.surface = match &ds.seg {
         Some((m, _)) if options.surface_model => Some(surface_config(

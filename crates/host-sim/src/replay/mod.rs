@@ -11,7 +11,7 @@ mod config;
 mod report;
 mod run;
 
-pub use config::robot_description;
+pub use config::{imu_rate_hz, robot_description};
 pub use report::{summary_table, write_outputs};
 
 use crate::asl::Dataset;
@@ -42,6 +42,9 @@ pub struct ReplayOutput {
     pub outcomes: Outcomes,
     /// The filter's health after every IMU step.
     pub health: Health,
+    /// The IMU's rate the filter was set for ([`imu_rate_hz`]), Hz, and
+    /// its first sample's time stamp; `None` without an IMU.
+    pub imu: Option<(f32, Timestamp)>,
 }
 
 /// The filter's health, checked after every processed IMU sample once the
@@ -225,14 +228,21 @@ pub struct ReplayOptions {
     /// (fewest inliers carried into the next frame before corners are
     /// detected afresh); `None` for its default.
     pub redetect_below: Option<usize>,
+    /// Refuse a log whose samples hold values that parse but are bad (NaN,
+    /// infinite, duplicated or out-of-order time stamps) with exit 2, as
+    /// syntax errors are; otherwise they reach the estimator, which rejects
+    /// and counts them ([`crate::asl::BadSamples`]).
+    pub strict: bool,
 }
 
 impl Default for ReplayOptions {
-    /// The surface model on, the camera path's defaults.
+    /// The surface model on, the camera path's defaults, bad samples passed
+    /// to the estimator.
     fn default() -> Self {
         ReplayOptions {
             surface_model: true,
             redetect_below: None,
+            strict: false,
         }
     }
 }
@@ -276,7 +286,12 @@ pub fn run_replay_with(
     progress: bool,
     options: ReplayOptions,
 ) -> Result<ReplayOutput, CliError> {
-    let ds = crate::asl::read_dataset(dataset)?;
+    let bad = if options.strict {
+        crate::asl::BadSamples::Refuse
+    } else {
+        crate::asl::BadSamples::PassOn
+    };
+    let ds = crate::asl::read_dataset_with(dataset, bad)?;
     let scene = crate::plot::Scene::read(dataset)?;
     let r = replay_with(&ds, dataset, progress, options)?;
     write_outputs(out, &r, ds.groundtruth.as_deref(), scene.as_ref())?;

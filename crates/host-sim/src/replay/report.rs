@@ -3,8 +3,8 @@
 //! state, the trajectory errors of [`crate::metrics`]), the files a replay
 //! writes (the trajectories `ekf.tum`, `vslam.tum`, `wheel_only.tum` and,
 //! with ground truth, `groundtruth.tum`: all poses of the body frame B; none
-//! written empty), and the summary table printed after a run with ground
-//! truth.
+//! written empty), and the summary printed after a run (the error table
+//! when there is ground truth).
 
 use super::ReplayOutput;
 use super::run::Collected;
@@ -173,11 +173,7 @@ pub fn write_outputs(
     let errors = errors_svg(&inputs);
     write(&out_dir.join("trajectory.svg"), &trajectory)?;
     write(&out_dir.join("errors.svg"), &errors)?;
-    let summary = if r.errors.is_empty() {
-        String::new()
-    } else {
-        summary_table(r)
-    };
+    let summary = summary_table(r);
     write(
         &out_dir.join("report.html"),
         &report_html(&inputs, &trajectory, &errors, &summary),
@@ -209,6 +205,9 @@ fn errors_table(r: &ReplayOutput) -> String {
 /// Scale decisions by source, pairs with slip, and the corner detections.
 fn decisions_summary(report: &Value) -> String {
     let mut s = String::new();
+    if report["camera_path"]["frames"].as_u64() == Some(0) {
+        return "no camera frames: no scale decisions\n".into();
+    }
     let frames = report["frames"].as_array().map(Vec::len).unwrap_or(0);
     let mut by_source = std::collections::BTreeMap::new();
     let mut slips = 0usize;
@@ -253,6 +252,45 @@ fn counts_summary(report: &Value) -> String {
     )
 }
 
+/// Rejected samples of the sensor streams by reason, e.g. `imu: non_finite
+/// 2, duplicate 1`; empty when none was rejected.
+fn reasons_summary(report: &Value) -> String {
+    let c = &report["counts"];
+    let streams: Vec<String> = ["imu", "wheel", "flow"]
+        .iter()
+        .filter_map(|s| {
+            let reasons: Vec<String> = c[*s]["rejected"]
+                .as_object()?
+                .iter()
+                .filter(|(r, _)| r.as_str() != "gated")
+                .map(|(r, n)| format!("{r} {n}"))
+                .collect();
+            (!reasons.is_empty()).then(|| format!("{s}: {}", reasons.join(", ")))
+        })
+        .collect();
+    if streams.is_empty() {
+        String::new()
+    } else {
+        format!("rejected by reason: {}\n", streams.join("; "))
+    }
+}
+
+/// The IMU's rate and when the EKF started (its first pose), from the
+/// IMU's first sample; empty without an IMU.
+fn start_summary(r: &ReplayOutput) -> String {
+    let Some((hz, t0)) = r.imu else {
+        return String::new();
+    };
+    let start = match r.ekf.first().and_then(|p| p.t.nanos_since(t0)) {
+        Some(ns) => format!(
+            "started {:.2} s after the first IMU sample",
+            ns as f64 * 1e-9
+        ),
+        None => "never started".to_string(),
+    };
+    format!("EKF: IMU at {hz:.1} Hz; {start}\n")
+}
+
 /// Jolt events by kind.
 fn events_summary(report: &Value) -> String {
     let events = report["events"]
@@ -268,10 +306,19 @@ fn events_summary(report: &Value) -> String {
     )
 }
 
-/// The summary table printed after a run with ground truth.
+/// The summary printed after a run: the error table when there is ground
+/// truth, then what does not need it (scale decisions, counts, rejections
+/// by reason, events).
 pub fn summary_table(r: &ReplayOutput) -> String {
-    errors_table(r)
+    let errors = if r.errors.is_empty() {
+        String::new()
+    } else {
+        errors_table(r)
+    };
+    errors
         + &decisions_summary(&r.report)
         + &counts_summary(&r.report)
+        + &reasons_summary(&r.report)
+        + &start_summary(r)
         + &events_summary(&r.report)
 }

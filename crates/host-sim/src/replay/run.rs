@@ -108,31 +108,42 @@ impl FrontEndMemory {
     }
 }
 
-/// Every stream in time order; images after the samples of the same time
+/// One stream's samples in file order, each at its arrival: its own time
+/// stamp, or, for a sample whose time stamp does not increase on the
+/// previous sample's (duplicated, out of order), right after the previous
+/// sample, so that the estimator sees it where the log has it.
+fn arrivals(events: impl Iterator<Item = Event>) -> Vec<(Timestamp, u8, Next)> {
+    let mut out: Vec<(Timestamp, u8, Next)> = Vec::new();
+    let mut previous: Option<(Timestamp, Timestamp)> = None;
+    for e in events {
+        let arrival = match previous {
+            Some((t, arrival)) if e.t() <= t => arrival,
+            _ => e.t(),
+        };
+        previous = Some((e.t(), arrival));
+        out.push((arrival, 0, Next::Sample(e)));
+    }
+    out
+}
+
+/// Every stream in arrival order (see [`arrivals`]; time order for a log
+/// whose time stamps increase); images after the samples of the same time
 /// stamp. `feed`, when given, replaces the dataset's sample streams.
 fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
     let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
     match feed {
         None => {
             if let Some((_, imu)) = &ds.imu {
-                items.extend(imu.iter().map(|s| (s.t, 0, Next::Sample(Event::Imu(*s)))));
+                items.extend(arrivals(imu.iter().map(|s| Event::Imu(*s))));
             }
             if let Some((_, wheels)) = &ds.wheel {
-                items.extend(
-                    wheels
-                        .iter()
-                        .map(|s| (s.t, 0, Next::Sample(Event::Wheel(*s)))),
-                );
+                items.extend(arrivals(wheels.iter().map(|s| Event::Wheel(*s))));
             }
             if let Some((_, rates)) = &ds.wheel_rates {
-                items.extend(
-                    rates
-                        .iter()
-                        .map(|s| (s.t, 0, Next::Sample(Event::WheelRates(*s)))),
-                );
+                items.extend(arrivals(rates.iter().map(|s| Event::WheelRates(*s))));
             }
             if let Some((_, f)) = &ds.flow {
-                items.extend(f.iter().map(|s| (s.t, 0, Next::Sample(Event::Flow(*s)))));
+                items.extend(arrivals(f.iter().map(|s| Event::Flow(*s))));
             }
         }
         Some(feed) => {
@@ -401,7 +412,13 @@ pub(super) fn run(
         ),
         None => Vec::new(),
     };
+    let imu = super::config::imu_rate_hz(ds).zip(
+        ds.imu
+            .as_ref()
+            .and_then(|(_, v)| v.iter().map(|s| s.t).min()),
+    );
     Ok(ReplayOutput {
+        imu,
         ekf: c.ekf,
         vslam: c.vslam,
         wheel_only,
@@ -445,6 +462,11 @@ fn wheel_only(
             Event::Wheel(w) => odo.update(w),
             _ => continue,
         };
+        // A sample the odometry refused for its time stamp (duplicated, out
+        // of order) writes no pose: the trajectory's times increase.
+        if out.last().is_some_and(|p: &TumPose| t <= p.t) {
+            continue;
+        }
         if let Ok(Some(step)) = step {
             let d = step.delta.translation;
             let (s, c) = yaw.sin_cos();
