@@ -15,7 +15,9 @@
 //! - flow reports: the EKF fuses the velocity with quality as noise, the
 //!   scale pipeline accumulates `To`.
 //!
-//! Camera frames ([`Estimator::process_camera`]) and segmentation maps
+//! Camera frames ([`Estimator::process_camera`]): the front end's frame
+//! pair motion goes to the scale pipeline, and with the pair's scale (if
+//! any) to the EKF as a relative-pose measurement. Camera frames and segmentation maps
 //! ([`Estimator::process_segmentation`]) are borrowed views, processed at
 //! once after every buffered sample up to their time. Every sample ends in
 //! exactly one count of its stream (fused, or rejected with a reason), so a
@@ -277,10 +279,19 @@ impl<'b> Estimator<'b> {
             self.counts[Stream::Camera].rejected_one(Reject::NotReady);
             return Err(Reject::NotReady);
         };
-        match frontend.process(t, image)? {
-            None => Ok(None),
-            Some(motion) => self.scale.push_camera(&motion).map(Some),
-        }
+        let Some(motion) = frontend.process(t, image)? else {
+            return Ok(None);
+        };
+        let decision = self.scale.push_camera(&motion)?;
+        // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
+        // frame pair is counted once here, by the camera path.
+        let scale = match (decision.scale, decision.running) {
+            (Ok(_), Some(r)) => Some((r.scale, r.sigma * r.sigma)),
+            (Ok(e), None) => Some((e.scale, e.variance)),
+            _ => None,
+        };
+        let _ = self.ekf.fuse_camera(&motion, scale);
+        Ok(Some(decision))
     }
 
     /// Processes a segmentation map of the forward camera taken at `t`.
