@@ -600,8 +600,8 @@ impl EgoEkf {
     /// `P H^T` from [`EgoEkf::covariance`]), checks its own sample times
     /// against [`EgoEkf::time`], and keeps its own counts and
     /// [`crate::AidStatus`]. `m.h` must be zero on the pose clone's columns
-    /// ([`crate::state::CLONE`]: the zero-velocity update's bookkeeping,
-    /// kept decoupled while the robot moves), else [`Reject::Degenerate`].
+    /// ([`crate::state::CLONE`]: the bookkeeping of the zero-velocity update
+    /// and the camera, see [`crate::camera`]), else [`Reject::Degenerate`].
     /// Before the filter starts every measurement is [`Reject::NotReady`].
     /// On any error the state and covariance are unchanged.
     pub fn fuse_external<const M: usize>(
