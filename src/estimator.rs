@@ -111,6 +111,22 @@ impl core::fmt::Display for EstimatorError {
 
 impl core::error::Error for EstimatorError {}
 
+/// The metric scale and its variance the EKF's camera update gets for a
+/// frame pair ([`EgoEkf::fuse_camera`]): none if the pair has no scale of
+/// its own (a turn in place, no usable source), else the running robust
+/// scale and its sigma squared (the pair's own scale and variance until the
+/// running scale has enough values). The running scale is the ceiling
+/// distance measured over many pairs, so one pair's wheel or flow distance
+/// does not enter the EKF twice; on `host-sim simulate` office seed 1 the
+/// two choices gave the same EKF ATE to 1 mm.
+pub fn filter_scale(decision: &FrameDecision) -> Option<(f32, f32)> {
+    match (decision.scale, decision.running) {
+        (Ok(_), Some(r)) => Some((r.scale, r.sigma * r.sigma)),
+        (Ok(e), None) => Some((e.scale, e.variance)),
+        (Err(_), _) => None,
+    }
+}
+
 /// What processing one buffered sample did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Processed {
@@ -285,12 +301,7 @@ impl<'b> Estimator<'b> {
         let decision = self.scale.push_camera(&motion)?;
         // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
         // frame pair is counted once here, by the camera path.
-        let scale = match (decision.scale, decision.running) {
-            (Ok(_), Some(r)) => Some((r.scale, r.sigma * r.sigma)),
-            (Ok(e), None) => Some((e.scale, e.variance)),
-            _ => None,
-        };
-        let _ = self.ekf.fuse_camera(&motion, scale);
+        let _ = self.ekf.fuse_camera(&motion, filter_scale(&decision));
         Ok(Some(decision))
     }
 

@@ -12,7 +12,7 @@
 //!   [`EgoEkf::fuse_wheel`] (the wheel rate, 50 Hz);
 //! - flow report: the scale pipeline's flow window, [`EgoEkf::fuse_flow`];
 //! - camera motion: [`ScalePipeline::push_camera`], then
-//!   [`EgoEkf::fuse_camera`] with the pair's scale (10 Hz).
+//!   [`EgoEkf::fuse_camera`] with `traction::estimator::filter_scale` (10 Hz).
 //!
 //! Every call is made through a [`Probe`], which the firmware uses to count
 //! instructions and paint the stack, and the host leaves empty.
@@ -20,7 +20,7 @@
 use core::fmt::{self, Write};
 
 use traction::ego_ekf::{EgoEkf, FilterConfig};
-use traction::estimator::{EstimatorConfig, EstimatorError};
+use traction::estimator::{EstimatorConfig, EstimatorError, filter_scale};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
@@ -272,8 +272,8 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
                     scaled_frames += 1;
                 }
                 if let Ok(d) = d {
-                    let pair_scale = d.scale.ok().map(|e| (e.scale, e.variance));
-                    let _ = probe.measure(Step::FuseCamera, || ekf.fuse_camera(&m, pair_scale));
+                    let scale = filter_scale(&d);
+                    let _ = probe.measure(Step::FuseCamera, || ekf.fuse_camera(&m, scale));
                 }
             }
         }
