@@ -670,6 +670,43 @@ mod tests {
     use super::*;
 
     #[test]
+    fn camera_mounting_is_seen_from_the_imu() {
+        use vslam_core::geometry::Rot3;
+        let imu = Extrinsics::new(
+            Rot3::from_euler_angles(0.0, 0.0, 1.5708),
+            Vec3::new(0.05, 0.0, 0.08),
+        )
+        .unwrap();
+        let camera = Extrinsics::new(
+            Rot3::from_euler_angles(3.1416, 0.0, -1.5708),
+            Vec3::new(0.0, 0.02, 0.10),
+        )
+        .unwrap();
+        let c = CameraConfig::from_mounts(&imu, &camera);
+        // A camera point seen through both mountings lands on the same
+        // body point: R_BI (R_IC p + t_IC) + t_BI = R_BC p + t_BC.
+        let p_c = Vec3::new(0.3, -0.2, 1.1);
+        let via_imu = imu.point_to_body(&(c.q_ic * p_c + c.t_ic));
+        let direct = camera.point_to_body(&p_c);
+        assert!((via_imu - direct).norm() < 1e-5, "{via_imu} {direct}");
+        let with = |c: CameraConfig| FilterConfig {
+            camera: Some(c),
+            ..FilterConfig::default()
+        };
+        assert_eq!(with(c).check(), Ok(()));
+        let silent = CameraConfig {
+            rotation_std: 0.0,
+            ..c
+        };
+        assert_eq!(with(silent).check(), Err(ConfigError::BadNoise));
+        let lost = CameraConfig {
+            t_ic: Vec3::new(f32::NAN, 0.0, 0.0),
+            ..c
+        };
+        assert_eq!(with(lost).check(), Err(ConfigError::BadGeometry));
+    }
+
+    #[test]
     fn each_sensor_config_refuses_a_zero_time_limit() {
         let optics = FlowOptics::new(48.8, 0.03, Extrinsics::identity()).unwrap();
         let ok = FilterConfig {
