@@ -673,12 +673,12 @@ mod tests {
     fn camera_mounting_is_seen_from_the_imu() {
         use vslam_core::geometry::Rot3;
         let imu = Extrinsics::new(
-            Rot3::from_euler_angles(0.0, 0.0, 1.5708),
+            Rot3::from_euler_angles(0.0, 0.0, 1.3),
             Vec3::new(0.05, 0.0, 0.08),
         )
         .unwrap();
         let camera = Extrinsics::new(
-            Rot3::from_euler_angles(3.1416, 0.0, -1.5708),
+            Rot3::from_euler_angles(3.0, 0.1, -1.4),
             Vec3::new(0.0, 0.02, 0.10),
         )
         .unwrap();
