@@ -54,12 +54,14 @@ pub struct Aids {
     pub flow: bool,
     /// Zero-velocity updates (the robot stands).
     pub zero_velocity: bool,
+    /// The camera's frame pairs (rotation, and translation when scaled).
+    pub camera: bool,
 }
 
 impl Aids {
     /// Whether any aid contributed (none: the pose is the IMU's dead reckoning).
     pub const fn any(&self) -> bool {
-        self.wheels || self.flow || self.zero_velocity
+        self.wheels || self.flow || self.zero_velocity || self.camera
     }
 }
 
@@ -171,6 +173,7 @@ pub fn estimate_of(ekf: &EgoEkf) -> Option<Estimate> {
             wheels: recent(ekf.wheel_status(), t),
             flow: recent(ekf.flow_status(), t),
             zero_velocity: recent(ekf.zupt_status(), t),
+            camera: recent(ekf.camera_status(), t),
         },
     })
 }

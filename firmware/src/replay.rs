@@ -11,7 +11,8 @@
 //! - wheel counts: `wheel-odom` odometry, the scale pipeline's wheel window,
 //!   [`EgoEkf::fuse_wheel`] (the wheel rate, 50 Hz);
 //! - flow report: the scale pipeline's flow window, [`EgoEkf::fuse_flow`];
-//! - camera motion: [`ScalePipeline::push_camera`] (10 Hz).
+//! - camera motion: [`ScalePipeline::push_camera`], then
+//!   [`EgoEkf::fuse_camera`] with `traction::estimator::filter_scale` (10 Hz).
 //!
 //! Every call is made through a [`Probe`], which the firmware uses to count
 //! instructions and paint the stack, and the host leaves empty.
@@ -19,7 +20,7 @@
 use core::fmt::{self, Write};
 
 use traction::ego_ekf::{EgoEkf, FilterConfig};
-use traction::estimator::{EstimatorConfig, EstimatorError};
+use traction::estimator::{EstimatorConfig, EstimatorError, filter_scale};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
@@ -59,6 +60,8 @@ pub enum Step {
     ScaleFlow,
     /// `ScalePipeline::push_camera`.
     ScaleCamera,
+    /// `EgoEkf::fuse_camera`: the frame pair against the pose clone.
+    FuseCamera,
     /// `FrontEnd::process` of one camera frame (pyramid, corners, LK,
     /// RANSAC homography, decomposition).
     FrontEnd,
@@ -66,7 +69,7 @@ pub enum Step {
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 9] = [
+    pub const ALL: [Step; 10] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -75,6 +78,7 @@ impl Step {
         Step::ScaleWheel,
         Step::ScaleFlow,
         Step::ScaleCamera,
+        Step::FuseCamera,
         Step::FrontEnd,
     ];
 
@@ -94,6 +98,7 @@ impl Step {
             Step::ScaleWheel => "scale.push_wheel",
             Step::ScaleFlow => "scale.push_flow",
             Step::ScaleCamera => "scale.push_camera",
+            Step::FuseCamera => "ekf.fuse_camera",
             Step::FrontEnd => "frontend.process",
         }
     }
@@ -265,6 +270,10 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
                 let d = probe.measure(Step::ScaleCamera, || scale.push_camera(&m));
                 if matches!(d, Ok(ref d) if d.scale.is_ok()) {
                     scaled_frames += 1;
+                }
+                if let Ok(d) = d {
+                    let scale = filter_scale(&d);
+                    let _ = probe.measure(Step::FuseCamera, || ekf.fuse_camera(&m, scale));
                 }
             }
         }
@@ -470,6 +479,7 @@ impl Summary {
         f("ekf.flow_counts", e.flow_counts());
         f("ekf.zupt_counts", e.zupt_counts());
         f("ekf.floor_counts", e.floor_counts());
+        f("ekf.camera_counts", e.camera_counts());
         for (name, kind) in [
             ("scale.wheel_counts", SensorKind::Wheel),
             ("scale.flow_counts", SensorKind::Flow),

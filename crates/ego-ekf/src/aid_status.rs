@@ -16,11 +16,14 @@
 //!   clone, attitude against the clone (see [`crate::zupt::model`]);
 //! - floor constraint, [`FloorStatus`]: the robot origin's height over the
 //!   floor plane and its vertical velocity, world frame (see
-//!   [`crate::floor::model`]).
+//!   [`crate::floor::model`]);
+//! - camera, [`CameraStatus`]: a frame pair's rotation and translation of
+//!   the IMU frame (see [`crate::camera::model`]).
 //!
 //! The filter keeps the latest record of each aid
 //! ([`crate::EgoEkf::wheel_status`], [`crate::EgoEkf::flow_status`],
-//! [`crate::EgoEkf::zupt_status`], [`crate::EgoEkf::floor_status`]). The records only report: nothing in the
+//! [`crate::EgoEkf::zupt_status`], [`crate::EgoEkf::floor_status`],
+//! [`crate::EgoEkf::camera_status`]). The records only report: nothing in the
 //! filter reads them back.
 
 use nalgebra::{SMatrix, SVector};
@@ -108,6 +111,11 @@ pub type ZuptStatus = AidStatus<9>;
 /// observation is the floor plane's height) and vertical velocity (m/s),
 /// world frame.
 pub type FloorStatus = AidStatus<2>;
+/// The camera's status: the IMU frame's rotation between the pair's frames
+/// (rotation vector, rad) and its translation (m; `NaN` when only the
+/// rotation was measured), in the IMU frame at the first frame (see
+/// [`crate::camera::model`]).
+pub type CameraStatus = AidStatus<6>;
 
 impl<const N: usize> AidStatus<N> {
     /// The record of a sample taken at `t` with `outcome`, numeric fields

@@ -1,8 +1,9 @@
 //! Filter configuration: IMU noise densities and limits, one struct per
-//! aiding sensor (wheels, flow), the robot prior, the still detector. Checked once by [`FilterConfig::check`].
+//! aiding sensor (wheels, flow, floor, camera), the robot prior, the still detector. Checked once by [`FilterConfig::check`].
 
 use core::fmt;
 
+use vslam_core::geometry::Extrinsics;
 pub use vslam_core::robot::ImuNoise;
 use vslam_core::robot::{FlowDescription, RobotDescription, RobotError};
 use vslam_core::sensors::{FlowOptics, FlowOpticsError};
@@ -153,6 +154,66 @@ impl Default for FloorConfig {
             climb_gate: 10.83,
             level_change: 0.05,
             reanchor_after: 100,
+        }
+    }
+}
+
+/// The camera's relative motions as pose measurements (see
+/// [`crate::camera`]): the mounting, the noise of a frame pair and the gates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraConfig {
+    /// Rotation of camera vectors into the IMU frame, `R_IC`.
+    pub q_ic: Quat,
+    /// Camera origin in the IMU frame, `t_IC`, m.
+    pub t_ic: Vec3,
+    /// Standard deviation of each rotation angle of a frame pair, rad.
+    pub rotation_std: f32,
+    /// Standard deviation of the translation's direction, as a fraction of
+    /// its length (each axis), 1.
+    pub translation_rel_std: f32,
+    /// Standard deviation of each translation axis at any length, m.
+    pub translation_std: f32,
+    /// Chi-square gate of the rotation alone (3 degrees of freedom).
+    pub rotation_gate: f32,
+    /// Chi-square gate of rotation and translation (6 degrees of freedom).
+    pub pose_gate: f32,
+    /// Whether a pair with a metric scale also measures the translation
+    /// (`false`: rotation only).
+    pub translation: bool,
+    /// How far behind the filter's time, ns, a frame may be and still be
+    /// measured (at the filter's time); an older one is out of order.
+    pub max_lag_ns: u64,
+}
+
+impl CameraConfig {
+    /// The camera mounted by `T_BC` on a robot whose IMU is mounted by
+    /// `T_BI` (both in the body frame `B`): `R_IC = R_BI^T R_BC`,
+    /// `t_IC = R_BI^T (t_BC - t_BI)`; the noise and gates of
+    /// [`CameraConfig::default`].
+    pub fn from_mounts(imu: &Extrinsics, camera: &Extrinsics) -> Self {
+        let r_ib = imu.r_bs().inverse();
+        CameraConfig {
+            q_ic: Quat::from_rotation_matrix(&(r_ib * camera.r_bs())),
+            t_ic: r_ib * (camera.t_bs() - imu.t_bs()),
+            ..CameraConfig::default()
+        }
+    }
+}
+
+impl Default for CameraConfig {
+    /// A camera at the IMU; a homography from a textured ceiling.
+    fn default() -> Self {
+        CameraConfig {
+            q_ic: Quat::identity(),
+            t_ic: Vec3::zeros(),
+            rotation_std: 5.0e-4,
+            translation_rel_std: 0.02,
+            translation_std: 0.0005,
+            // chi-square, 99.9 %: 3 and 6 degrees of freedom.
+            rotation_gate: 16.27,
+            pose_gate: 22.46,
+            translation: true,
+            max_lag_ns: 20_000_000,
         }
     }
 }
@@ -440,6 +501,8 @@ pub struct FilterConfig {
     /// The floor constraint, if the robot drives on a floor (`None`: the
     /// vertical position is left to the other aids).
     pub floor: Option<FloorConfig>,
+    /// The camera's frame pairs, if the robot has a camera.
+    pub camera: Option<CameraConfig>,
     /// Grip before the surface model says otherwise.
     pub grip: GripParams,
     /// Magnitude of gravity, m/s^2.
@@ -458,6 +521,7 @@ impl Default for FilterConfig {
             zupt: ZuptConfig::default(),
             flow: None,
             floor: Some(FloorConfig::default()),
+            camera: None,
             grip: GripParams::default(),
             gravity: crate::state::STANDARD_GRAVITY,
         }
@@ -533,6 +597,10 @@ impl FilterConfig {
                 .as_ref()
                 .map(FlowConfig::from_robot)
                 .transpose()?,
+            camera: robot
+                .camera
+                .as_ref()
+                .map(|c| CameraConfig::from_mounts(&robot.imu.mount, c)),
             ..FilterConfig::default()
         })
     }
@@ -618,6 +686,18 @@ impl FilterConfig {
                 f.level_change,
             ]
         });
+        let camera_noise = self.camera.map_or([1.0; 5], |c| {
+            [
+                c.rotation_std,
+                c.translation_rel_std,
+                c.translation_std,
+                c.rotation_gate,
+                c.pose_gate,
+            ]
+        });
+        let camera_mount_finite = self.camera.is_none_or(|c| {
+            c.t_ic.iter().all(|v| v.is_finite()) && c.q_ic.coords.iter().all(|v| v.is_finite())
+        });
         if self
             .floor
             .is_some_and(|f| f.every == 0 || f.reanchor_after == 0)
@@ -636,6 +716,7 @@ impl FilterConfig {
             .iter()
             .chain(flow_noise.iter())
             .chain(floor_noise.iter())
+            .chain(camera_noise.iter())
             .all(|v| positive(*v))
             || !min_grip_ok
         {
@@ -645,7 +726,8 @@ impl FilterConfig {
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()))
             && r.q_rb.coords.iter().all(|x| x.is_finite());
-        if !vectors_finite || !positive(r.radius) || !positive(self.gravity) {
+        if !vectors_finite || !camera_mount_finite || !positive(r.radius) || !positive(self.gravity)
+        {
             return Err(ConfigError::BadGeometry);
         }
         if self.imu.max_dt_ns == 0
@@ -664,7 +746,43 @@ impl FilterConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vslam_core::geometry::Extrinsics;
+
+    #[test]
+    fn camera_mounting_is_seen_from_the_imu() {
+        use vslam_core::geometry::Rot3;
+        let imu = Extrinsics::new(
+            Rot3::from_euler_angles(0.0, 0.0, 1.3),
+            Vec3::new(0.05, 0.0, 0.08),
+        )
+        .unwrap();
+        let camera = Extrinsics::new(
+            Rot3::from_euler_angles(3.0, 0.1, -1.4),
+            Vec3::new(0.0, 0.02, 0.10),
+        )
+        .unwrap();
+        let c = CameraConfig::from_mounts(&imu, &camera);
+        // A camera point seen through both mountings lands on the same
+        // body point: R_BI (R_IC p + t_IC) + t_BI = R_BC p + t_BC.
+        let p_c = Vec3::new(0.3, -0.2, 1.1);
+        let via_imu = imu.point_to_body(&(c.q_ic * p_c + c.t_ic));
+        let direct = camera.point_to_body(&p_c);
+        assert!((via_imu - direct).norm() < 1e-5, "{via_imu} {direct}");
+        let with = |c: CameraConfig| FilterConfig {
+            camera: Some(c),
+            ..FilterConfig::default()
+        };
+        assert_eq!(with(c).check(), Ok(()));
+        let silent = CameraConfig {
+            rotation_std: 0.0,
+            ..c
+        };
+        assert_eq!(with(silent).check(), Err(ConfigError::BadNoise));
+        let lost = CameraConfig {
+            t_ic: Vec3::new(f32::NAN, 0.0, 0.0),
+            ..c
+        };
+        assert_eq!(with(lost).check(), Err(ConfigError::BadGeometry));
+    }
 
     #[test]
     fn imu_rate_keeps_durations_and_bounds_the_step() {

@@ -6,6 +6,7 @@ use vslam_core::kinematics::{mid_axle, rim};
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
+use crate::camera::CameraFusion;
 use crate::config::{ConfigError, FilterConfig, InitConfig};
 use crate::covariance;
 use crate::floor::FloorFusion;
@@ -18,11 +19,12 @@ use crate::propagate::{
     propagate_nominal, vertical_deviation,
 };
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Refutation, Verdict};
-use crate::state::{CLONE, Covariance, NominalState, P, Quat, TH, V, Vec3};
+use crate::state::{CLONE, Covariance, ErrorState, NominalState, P, Quat, TH, V, Vec3};
 use crate::update::{Measurement, UpdateReport, gated_update};
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
 
+mod camera;
 mod read;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
@@ -127,9 +129,35 @@ pub struct EgoEkf {
     refutation: Refutation,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
-    /// Whether the clone is older than the latest moving step's pose (see
-    /// [`EgoEkf::propagate`]): the next still step clones first.
-    clone_due: bool,
+    /// What the pose clone holds and who reads it (see [`CloneUse`]).
+    clone: CloneUse,
+    camera: CameraFusion,
+    /// The latest accepted IMU sample's rates (gyro, specific force), as
+    /// measured: the zero-order hold to a camera frame between samples.
+    last_imu: Option<(Vec3, Vec3)>,
+}
+
+/// The pose clone's schedule: one clone, shared by the zero-velocity
+/// update and the camera (no second clone, so the state and the cost of a
+/// still step are those of the filter without a camera).
+///
+/// - [`CloneUse::Still`]: the pose where the robot stopped (or started),
+///   read by the zero-velocity update; copied at the first still step;
+/// - [`CloneUse::Due`]: moving, no camera pair to measure: the clone is
+///   decoupled ([`covariance::decouple_clone`]) and costs nothing in
+///   propagation until the next still step or camera frame copies the pose;
+/// - [`CloneUse::Frame`]: moving, the pose at the camera frame of that time,
+///   copied after the frame's update; coupled (propagated with the pose) so
+///   that the next frame's pair measures the motion between the two.
+///
+/// A still robot's frames are not measured (the zero-velocity update already
+/// holds the pose to the clone); the first frame after the robot starts
+/// moving only takes the clone (see [`crate::camera::fusion`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CloneUse {
+    Still,
+    Due,
+    Frame(Timestamp),
 }
 
 /// IMU gaps the filter bridged (see [`crate::gap`]).
@@ -196,7 +224,9 @@ impl EgoEkf {
             refutation: Refutation::default(),
             gaps: GapCounts::default(),
             gap_odometry: GapOdometry::new(),
-            clone_due: false,
+            clone: CloneUse::Still,
+            camera: CameraFusion::new(),
+            last_imu: None,
             config,
         })
     }
@@ -242,7 +272,8 @@ impl EgoEkf {
         let d = covariance::initial_variances(&init, &self.config.robot);
         self.p = Covariance::from_diagonal(&d);
         clone_pose(&mut self.x, &mut self.p);
-        self.clone_due = false;
+        self.clone = CloneUse::Still;
+        self.last_imu = None;
         self.refutation.clear();
         self.imu_clock.reset();
         // Anchor the IMU clock at the start time; cannot fail after a reset.
@@ -304,6 +335,7 @@ impl EgoEkf {
         if dt.is_nan() || dt <= 0.0 {
             return Err(Reject::Duplicate);
         }
+        self.last_imu = Some((*sample.gyro(), *sample.accel()));
         let gyro = sample.gyro() - self.x.gyro_bias;
         let accel = sample.accel() - self.x.accel_bias;
         // The still detector reads only the sample and the wheels' and the
@@ -327,17 +359,14 @@ impl EgoEkf {
         let f = Transition::new(&r_wb, &accel, &gyro, dt);
         let q = process_noise(&self.config.imu.noise, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
-        if self.clone_due {
-            propagate_covariance_clone_decoupled(&mut self.p, &f, &q);
-        } else {
-            propagate_covariance(&mut self.p, &f, &q);
-        }
+        self.propagate_covariance(&f, &q);
 
-        if !still && !self.clone_due {
-            // Nothing reads the clone until the next still step copies the
-            // pose over it: decoupled, it costs nothing in the meantime.
+        if !still && self.clone == CloneUse::Still {
+            // Nothing reads the clone until the next still step or camera
+            // frame copies the pose over it: decoupled, it costs nothing in
+            // the meantime.
             covariance::decouple_clone(&mut self.p);
-            self.clone_due = true;
+            self.clone = CloneUse::Due;
         } else if self.still.update_due(&zc) {
             let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
         }
@@ -377,10 +406,24 @@ impl EgoEkf {
     /// decoupled ([`covariance::decouple_clone`]): a past pose with zero
     /// covariance with the other states, which propagation and updates
     /// leave untouched (and propagation skips).
+    ///
+    /// A clone held for the camera ([`CloneUse::Frame`]) is replaced the
+    /// same way: the zero-velocity update needs the pose where the robot
+    /// stopped.
     fn clone_if_due(&mut self, still: bool) {
-        if still && self.clone_due {
+        if still && self.clone != CloneUse::Still {
             clone_pose(&mut self.x, &mut self.p);
-            self.clone_due = false;
+            self.clone = CloneUse::Still;
+        }
+    }
+
+    /// The covariance's propagation by `f` with noise `q`: the clone's rows
+    /// skipped while it is decoupled ([`CloneUse::Due`]).
+    fn propagate_covariance(&mut self, f: &Transition, q: &ErrorState) {
+        if self.clone == CloneUse::Due {
+            propagate_covariance_clone_decoupled(&mut self.p, f, q);
+        } else {
+            propagate_covariance(&mut self.p, f, q);
         }
     }
 
@@ -562,8 +605,8 @@ impl EgoEkf {
     /// `P H^T` from [`EgoEkf::covariance`]), checks its own sample times
     /// against [`EgoEkf::time`], and keeps its own counts and
     /// [`crate::AidStatus`]. `m.h` must be zero on the pose clone's columns
-    /// ([`crate::state::CLONE`]: the zero-velocity update's bookkeeping,
-    /// kept decoupled while the robot moves), else [`Reject::Degenerate`].
+    /// ([`crate::state::CLONE`]: the bookkeeping of the zero-velocity update
+    /// and the camera, see [`crate::camera`]), else [`Reject::Degenerate`].
     /// Before the filter starts every measurement is [`Reject::NotReady`].
     /// On any error the state and covariance are unchanged.
     pub fn fuse_external<const M: usize>(

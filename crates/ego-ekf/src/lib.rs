@@ -4,14 +4,15 @@
 //! kinematics for the error-state Kalman filter", 2017): IMU state, a pose
 //! clone and robot state (wheel contact points, body-to-robot rotation, wheel
 //! radii), with surface-aware wheel-velocity fusion, optical flow and
-//! zero-velocity updates. No allocator, `f32`.
+//! zero-velocity updates, a floor constraint and the camera's frame pairs
+//! (stochastic cloning). No allocator, `f32`.
 //!
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
 //!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
-//! - [`wheel`], [`flow`], [`zupt`], [`floor`]: one module per measurement, *when to
+//! - [`wheel`], [`flow`], [`zupt`], [`floor`], [`camera`]: one module per measurement, *when to
 //!   fuse* apart from *the maths*; [`aid_status`]: the one status record
 //!   each of them leaves (PX4 EKF2 `estimator_aid_source` style);
 //! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
@@ -60,6 +61,7 @@
 )]
 
 pub mod aid_status;
+pub mod camera;
 pub mod config;
 pub mod covariance;
 pub mod events;
@@ -79,10 +81,12 @@ pub mod update;
 pub mod wheel;
 pub mod zupt;
 
-pub use aid_status::{AidOutcome, AidStatus, FloorStatus, FlowStatus, WheelStatus, ZuptStatus};
+pub use aid_status::{
+    AidOutcome, AidStatus, CameraStatus, FloorStatus, FlowStatus, WheelStatus, ZuptStatus,
+};
 pub use config::{
-    ConfigError, FilterConfig, FloorConfig, FlowConfig, GapConfig, ImuConfig, ImuNoise, InitConfig,
-    RecoveryConfig, RobotPrior, WheelConfig, ZuptConfig,
+    CameraConfig, ConfigError, FilterConfig, FloorConfig, FlowConfig, GapConfig, ImuConfig,
+    ImuNoise, InitConfig, RecoveryConfig, RobotPrior, WheelConfig, ZuptConfig,
 };
 pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep};
 pub use flow::FlowFused;

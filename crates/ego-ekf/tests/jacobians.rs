@@ -2,7 +2,8 @@
 //! functions (perturbing the nominal state through the filter's own error
 //! injection, so the local rotation conventions are checked too).
 
-use ego_ekf::config::{FloorConfig, FlowConfig, ZuptConfig};
+use ego_ekf::camera::model::{pose_measurement, predicted, rotation_measurement};
+use ego_ekf::config::{CameraConfig, FloorConfig, FlowConfig, ZuptConfig};
 use ego_ekf::floor::model::floor_measurement;
 use ego_ekf::flow::model::flow_measurement;
 use ego_ekf::grip::GripParams;
@@ -122,4 +123,18 @@ fn flow_config_defaults_are_usable() {
     .unwrap();
     let f = FlowConfig::new(optics);
     assert!(f.gate > 0.0 && f.base_std > 0.0);
+}
+
+#[test]
+fn camera_jacobians_match_finite_differences() {
+    // Measured = predicted at the linearisation point, so that h(x) =
+    // -residual(x) is the predicted motion's local difference from it.
+    let c = CameraConfig::default();
+    let (rel, t_rel) = predicted(&state());
+    let cov = nalgebra::Matrix3::identity() * 1e-6;
+    check(|x| rotation_measurement(x, &rel, &c), SVector::zeros());
+    check(
+        |x| pose_measurement(x, &rel, &t_rel, &cov, &c),
+        SVector::zeros(),
+    );
 }

@@ -103,6 +103,22 @@ fn slip_scenario_estimates_beat_wheel_only_and_replay_is_deterministic() {
         Some(ds.cam.as_ref().unwrap().1.len() as u64 - 1)
     );
 
+    // The camera's pairs reach the EKF (each pair the camera path measured
+    // is fused, gated or refused with its reason there) and hold its heading
+    // near the camera path's.
+    let cam = &a.report["filter_counts"]["camera"];
+    let (seen, fused) = (
+        cam["seen"].as_u64().unwrap(),
+        cam["fused"].as_u64().unwrap(),
+    );
+    assert!(seen <= counts["camera"]["seen"].as_u64().unwrap());
+    assert!(fused * 10 > seen * 8, "camera pairs in the EKF: {cam}");
+    println!(
+        "yaw RMSE: ekf {:.3} deg, vslam {:.3} deg",
+        ekf.yaw_rmse_deg, vslam.yaw_rmse_deg
+    );
+    assert!(ekf.yaw_rmse_deg < 3.0 * vslam.yaw_rmse_deg.max(0.05));
+
     // Replaying the same log again writes byte-identical files.
     run_replay(&data, &root.join("b"), false).unwrap();
     for f in [

@@ -107,6 +107,7 @@ pub(super) fn report_json(missing: &[&'static str], c: &Collected, est: &Estimat
             "flow": counts_json(ekf.flow_counts()),
             "zupt": counts_json(ekf.zupt_counts()),
             "floor": counts_json(ekf.floor_counts()),
+            "camera": counts_json(ekf.camera_counts()),
         },
         "frames": c.decisions,
         "camera_rejections": c.camera_rejections,
