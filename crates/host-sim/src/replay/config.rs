@@ -176,7 +176,8 @@ fn sensor_folder(s: MountedSensor) -> &'static str {
 }
 
 /// The estimator's configuration: [`EstimatorConfig::from_robot`] on the
-/// dataset's [`robot_description`], and the surface model from `seg0`.
+/// dataset's [`robot_description`], the surface model from `seg0`, and the
+/// scale pipeline's selection method and composition as `options` say.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
@@ -194,6 +195,12 @@ pub(super) fn estimator_config(
         )?),
         _ => None,
     };
+    if let Some(m) = options.scale_method {
+        config.scale.method = m;
+    }
+    if let Some(c) = options.compose {
+        config.scale.compose = c;
+    }
     Ok(config)
 }
 

@@ -22,6 +22,7 @@ use crate::tum::TumPose;
 use serde_json::Value;
 use std::path::Path;
 use traction::reorder::Event;
+use traction::vslam_core::scale::{ComposeScale, SelectionMethod};
 use traction::vslam_core::{Reject, Timestamp};
 
 /// What a replay produced.
@@ -225,14 +226,22 @@ pub struct ReplayOptions {
     /// (fewest inliers carried into the next frame before corners are
     /// detected afresh); `None` for its default.
     pub redetect_below: Option<usize>,
+    /// The scale pipeline's selection method; `None` for its default
+    /// ([`SelectionMethod::Fusion`]).
+    pub scale_method: Option<SelectionMethod>,
+    /// Which scale composes the camera path; `None` for the pipeline's
+    /// default ([`ComposeScale::Running`]).
+    pub compose: Option<ComposeScale>,
 }
 
 impl Default for ReplayOptions {
-    /// The surface model on, the camera path's defaults.
+    /// The surface model on, the camera path's and the scale pipeline's defaults.
     fn default() -> Self {
         ReplayOptions {
             surface_model: true,
             redetect_below: None,
+            scale_method: None,
+            compose: None,
         }
     }
 }

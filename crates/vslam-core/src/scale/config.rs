@@ -22,14 +22,15 @@ pub const SCALE_WINDOW: usize = 15;
 /// The pipeline's adverse-event memory: 16 x 16 cells, 4 time slots.
 pub type PipelineMemory = AdverseMemory<16, 16, 4>;
 
-/// Which scale multiplies each frame's `t/d` in the composition.
+/// Which scale multiplies each frame pair's `t/d` in the composition.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ComposeScale {
     /// The running robust scale (median over [`SCALE_WINDOW`] frames), default.
     #[default]
     Running,
-    /// This frame's selected scale (the running one when the frame has none).
-    Frame,
+    /// The pair's own selected scale, as the seed composes (the running one
+    /// when the pair has none: pure rotation, no usable source).
+    Pair,
 }
 
 /// Everything the pipeline is configured with.

@@ -296,7 +296,7 @@ impl<const N: usize> ScalePipeline<N> {
         };
         let running = self.robust.estimate();
         let applied = match (cfg.compose, scale) {
-            (ComposeScale::Frame, Ok(e)) => Some(e.scale),
+            (ComposeScale::Pair, Ok(e)) => Some(e.scale),
             _ => running.map(|r| r.scale).or(scale.ok().map(|e| e.scale)),
         };
 
