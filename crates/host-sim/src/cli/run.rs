@@ -10,7 +10,7 @@ use crate::simulate::{scenario_for, simulate_faults_with, simulate_scenario_with
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use traction::vslam_core::scale::{ComposeScale, SelectionMethod};
+use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 
 /// Arguments of `host-sim simulate`.
 #[derive(Debug, Args)]
@@ -113,6 +113,24 @@ impl From<ComposeArg> for ComposeScale {
     }
 }
 
+/// Which length of the wheel and flow motion is compared with `|T|`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DistanceArg {
+    /// The path length over the frame interval.
+    Path,
+    /// The chord: start-to-end displacement over the frame interval.
+    Chord,
+}
+
+impl From<DistanceArg> for Distance {
+    fn from(d: DistanceArg) -> Self {
+        match d {
+            DistanceArg::Path => Distance::Path,
+            DistanceArg::Chord => Distance::Chord,
+        }
+    }
+}
+
 /// The scale pipeline's settings shared by `simulate` and `replay`.
 #[derive(Debug, Clone, Copy, Args)]
 pub struct ScaleArgs {
@@ -124,6 +142,10 @@ pub struct ScaleArgs {
     /// (`pair`) or the running robust scale (`running`, default).
     #[arg(long, value_enum, value_name = "MODE")]
     pub compose: Option<ComposeArg>,
+    /// Which length of the wheel and flow motion over a frame pair is
+    /// compared with the camera's |T|: the path or the chord.
+    #[arg(long, value_enum, value_name = "LENGTH")]
+    pub distance: Option<DistanceArg>,
 }
 
 impl ScaleArgs {
@@ -132,6 +154,7 @@ impl ScaleArgs {
         ReplayOptions {
             scale_method: self.scale_method.map(Into::into),
             compose: self.compose.map(Into::into),
+            distance: self.distance.map(Into::into),
             ..base
         }
     }

@@ -177,7 +177,7 @@ fn sensor_folder(s: MountedSensor) -> &'static str {
 
 /// The estimator's configuration: [`EstimatorConfig::from_robot`] on the
 /// dataset's [`robot_description`], the surface model from `seg0`, and the
-/// scale pipeline's selection method and composition as `options` say.
+/// scale pipeline's selection method, composition and distance as `options` say.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
@@ -200,6 +200,9 @@ pub(super) fn estimator_config(
     }
     if let Some(c) = options.compose {
         config.scale.compose = c;
+    }
+    if let Some(d) = options.distance {
+        config.scale.distance = d;
     }
     Ok(config)
 }

@@ -22,7 +22,7 @@ use crate::tum::TumPose;
 use serde_json::Value;
 use std::path::Path;
 use traction::reorder::Event;
-use traction::vslam_core::scale::{ComposeScale, SelectionMethod};
+use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 use traction::vslam_core::{Reject, Timestamp};
 
 /// What a replay produced.
@@ -232,6 +232,9 @@ pub struct ReplayOptions {
     /// Which scale composes the camera path; `None` for the pipeline's
     /// default ([`ComposeScale::Running`]).
     pub compose: Option<ComposeScale>,
+    /// Which length of the wheel and flow motion is compared with the
+    /// camera's `|T|`; `None` for the pipeline's default.
+    pub distance: Option<Distance>,
 }
 
 impl Default for ReplayOptions {
@@ -242,6 +245,7 @@ impl Default for ReplayOptions {
             redetect_below: None,
             scale_method: None,
             compose: None,
+            distance: None,
         }
     }
 }

@@ -6,7 +6,7 @@ use super::flow::FlowParams;
 use super::robust::RobustParams;
 use super::select::{SelectParams, SelectionMethod};
 use super::slip::SlipParams;
-use super::transactions::WheelParams;
+use super::transactions::{Distance, WheelParams};
 use crate::adverse::{AdverseError, AdverseMemory, AdverseParams};
 use crate::geometry::Extrinsics;
 use crate::pose::Pose;
@@ -40,6 +40,8 @@ pub struct PipelineConfig {
     pub method: SelectionMethod,
     /// Which scale the composition uses.
     pub compose: ComposeScale,
+    /// Which length of the wheel and flow motion is compared with `|T|`.
+    pub distance: Distance,
     /// Camera mounting `T_BC`.
     pub camera: Extrinsics,
     /// IMU mounting `T_BI`.
@@ -75,6 +77,7 @@ impl Default for PipelineConfig {
         PipelineConfig {
             method: SelectionMethod::Fusion,
             compose: ComposeScale::Running,
+            distance: Distance::Path,
             camera: Extrinsics::identity(),
             imu: Extrinsics::identity(),
             flow_optics: None,
@@ -119,7 +122,7 @@ impl PipelineConfig {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         let non_negative = |v: f32| v.is_finite() && v >= 0.0;
         let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
-        let checks: [(bool, &'static str); 19] = [
+        let checks: [(bool, &'static str); 20] = [
             (positive(self.wheel.k), "wheel.k"),
             (non_negative(self.wheel.rel_sigma), "wheel.rel_sigma"),
             (non_negative(self.wheel.floor_sigma), "wheel.floor_sigma"),
@@ -138,6 +141,10 @@ impl PipelineConfig {
             ),
             (positive(self.slip.accel_tolerance), "slip.accel_tolerance"),
             (unit(self.slip.spin_ratio), "slip.spin_ratio"),
+            (
+                positive(self.slip.camera_tolerance),
+                "slip.camera_tolerance",
+            ),
             (positive(self.select.min_baseline), "select.min_baseline"),
             (
                 non_negative(self.select.camera_rel_sigma),

@@ -31,7 +31,7 @@ use super::raw_flow::{FeatureMotion, RawFlowError, RawFlowOptics, raw_flow_step}
 use super::robust::{RobustEstimate, RobustScale};
 use super::select::{NoScale, SelectionInput, SelectionMethod, select};
 use super::slip::{SlipEvidence, SlipReport, assess, disagreement};
-use super::transactions::{Transaction, WheelWindow};
+use super::transactions::{Distance, Transaction, WheelWindow};
 use crate::adverse::{AdverseKind, AdverseMemory, SensorKind};
 use crate::geometry::Vec2;
 use crate::pose::{Pose, Trajectory};
@@ -210,7 +210,11 @@ impl<const N: usize> ScalePipeline<N> {
             Vec2::new(p.x, p.y)
         };
         let ws = self.wheel.summarize(t0, t1, &point);
-        let (flow_raw, fs) = self.flow.transaction(t0, t1, &point);
+        let wheel_m = match cfg.distance {
+            Distance::Path => ws.path,
+            Distance::Chord => ws.chord,
+        };
+        let (flow_raw, fs) = self.flow.transaction(t0, t1, &point, cfg.distance);
         let imu = self.imu.summarize(t0, t1);
         let imu_ok = imu.coverage >= 0.5;
         let before = self.robust.estimate();
@@ -221,7 +225,7 @@ impl<const N: usize> ScalePipeline<N> {
         let slip = assess(
             &SlipEvidence {
                 dt,
-                wheel_path: ws.path,
+                wheel_path: wheel_m,
                 wheel_yaw: ws.yaw,
                 wheel_accel: ws.accel,
                 wheel_discontinuities: ws.discontinuities,
@@ -244,9 +248,9 @@ impl<const N: usize> ScalePipeline<N> {
             ws.discontinuities,
         ) * wheel_weight;
         let wheel = Transaction {
-            metres: ws.path,
+            metres: wheel_m,
             variance: Transaction::variance_for(
-                ws.path,
+                wheel_m,
                 cfg.wheel.rel_sigma,
                 cfg.wheel.floor_sigma,
                 wc,
@@ -269,15 +273,15 @@ impl<const N: usize> ScalePipeline<N> {
         // Wheel data erroneous (gaps, glitches, too little coverage) or an
         // outlier against the flow or against the running scale.
         let erroneous =
-            !ws.path.is_finite() || ws.coverage < cfg.min_wheel_coverage || ws.discontinuities > 0;
+            !wheel_m.is_finite() || ws.coverage < cfg.min_wheel_coverage || ws.discontinuities > 0;
         let vs_flow = flow.confidence >= cfg.slip.min_flow_confidence && {
             let wheel_var =
-                Transaction::variance_for(ws.path, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0);
+                Transaction::variance_for(wheel_m, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0);
             let k = cfg.wheel_outlier_sigmas;
-            disagreement(ws.path, wheel_var, flow.metres, flow.variance) > k * k
+            disagreement(wheel_m, wheel_var, flow.metres, flow.variance) > k * k
         };
         let vs_running = baseline >= cfg.select.min_baseline
-            && before.is_some_and(|e| e.z(ws.path / baseline) > cfg.robust.gate_sigmas);
+            && before.is_some_and(|e| e.z(wheel_m / baseline) > cfg.robust.gate_sigmas);
         let wheel_outlier = erroneous || vs_flow || vs_running;
 
         let input = SelectionInput {
