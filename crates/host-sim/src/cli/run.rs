@@ -98,7 +98,7 @@ impl From<ScaleMethodArg> for SelectionMethod {
 /// Which scale composes the camera path, by its command-line name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ComposeArg {
-    /// Each frame pair with its own selected scale (seed 000).
+    /// Each frame pair with its own selected scale (seed 000), default.
     Pair,
     /// The running robust scale (median of the last 15 pairs' scales).
     Running,
@@ -118,7 +118,7 @@ impl From<ComposeArg> for ComposeScale {
 pub enum DistanceArg {
     /// The path length over the frame interval.
     Path,
-    /// The chord: start-to-end displacement over the frame interval.
+    /// The chord: start-to-end displacement over the frame interval, default.
     Chord,
 }
 
@@ -139,11 +139,11 @@ pub struct ScaleArgs {
     #[arg(long, value_enum, value_name = "METHOD")]
     pub scale_method: Option<ScaleMethodArg>,
     /// Which scale composes the camera path (vslam.tum): each pair's own
-    /// (`pair`) or the running robust scale (`running`, default).
+    /// (`pair`, default) or the running robust scale (`running`).
     #[arg(long, value_enum, value_name = "MODE")]
     pub compose: Option<ComposeArg>,
     /// Which length of the wheel and flow motion over a frame pair is
-    /// compared with the camera's |T|: the path or the chord.
+    /// compared with the camera's |T|: the path or the chord (default).
     #[arg(long, value_enum, value_name = "LENGTH")]
     pub distance: Option<DistanceArg>,
 }

@@ -230,7 +230,7 @@ pub struct ReplayOptions {
     /// ([`SelectionMethod::Fusion`]).
     pub scale_method: Option<SelectionMethod>,
     /// Which scale composes the camera path; `None` for the pipeline's
-    /// default ([`ComposeScale::Running`]).
+    /// default ([`ComposeScale::Pair`]).
     pub compose: Option<ComposeScale>,
     /// Which length of the wheel and flow motion is compared with the
     /// camera's `|T|`; `None` for the pipeline's default.

@@ -25,11 +25,13 @@ pub type PipelineMemory = AdverseMemory<16, 16, 4>;
 /// Which scale multiplies each frame pair's `t/d` in the composition.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ComposeScale {
-    /// The running robust scale (median over [`SCALE_WINDOW`] frames), default.
-    #[default]
+    /// The running robust scale (median over [`SCALE_WINDOW`] frames).
     Running,
     /// The pair's own selected scale, as the seed composes (the running one
-    /// when the pair has none: pure rotation, no usable source).
+    /// when the pair has none: pure rotation, no usable source); default: it
+    /// follows a change of ceiling height at once, where the running median
+    /// lags by half its window (README, "Scale: composition").
+    #[default]
     Pair,
 }
 
@@ -76,8 +78,8 @@ impl Default for PipelineConfig {
     fn default() -> Self {
         PipelineConfig {
             method: SelectionMethod::Fusion,
-            compose: ComposeScale::Running,
-            distance: Distance::Path,
+            compose: ComposeScale::Pair,
+            distance: Distance::Chord,
             camera: Extrinsics::identity(),
             imu: Extrinsics::identity(),
             flow_optics: None,

@@ -75,9 +75,10 @@ impl Transaction {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Distance {
     /// The path length: the sum of the steps' lengths (the seed's wording).
-    #[default]
     Path,
-    /// The chord: the length of the summed displacement, start to end.
+    /// The chord: the length of the summed displacement, start to end;
+    /// default: it is what `|T|` measures (README, "Scale: path or chord").
+    #[default]
     Chord,
 }
 
