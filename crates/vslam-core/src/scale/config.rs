@@ -72,6 +72,9 @@ pub struct PipelineConfig {
     pub wheel_outlier_sigmas: f32,
     /// Coverage below which the wheel data count as erroneous.
     pub min_wheel_coverage: f32,
+    /// Floor grip at and above which the wheels get full confidence
+    /// ([`super::ScalePipeline::set_wheel_grip`]).
+    pub full_trust_grip: f32,
 }
 
 impl Default for PipelineConfig {
@@ -94,6 +97,7 @@ impl Default for PipelineConfig {
             imu_max_step_ns: 50_000_000,
             wheel_outlier_sigmas: 4.0,
             min_wheel_coverage: 0.5,
+            full_trust_grip: 0.9,
         }
     }
 }
@@ -124,7 +128,7 @@ impl PipelineConfig {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         let non_negative = |v: f32| v.is_finite() && v >= 0.0;
         let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
-        let checks: [(bool, &'static str); 20] = [
+        let checks: [(bool, &'static str); 21] = [
             (positive(self.wheel.k), "wheel.k"),
             (non_negative(self.wheel.rel_sigma), "wheel.rel_sigma"),
             (non_negative(self.wheel.floor_sigma), "wheel.floor_sigma"),
@@ -160,6 +164,10 @@ impl PipelineConfig {
             (positive(self.robust.rel_floor), "robust.rel_floor"),
             (positive(self.wheel_outlier_sigmas), "wheel_outlier_sigmas"),
             (unit(self.min_wheel_coverage), "min_wheel_coverage"),
+            (
+                positive(self.full_trust_grip) && self.full_trust_grip <= 1.0,
+                "full_trust_grip",
+            ),
         ];
         match checks.iter().find(|(ok, _)| !ok) {
             Some((_, name)) => Err(PipelineConfigError::OutOfRange(name)),

@@ -81,6 +81,7 @@ pub struct ScalePipeline<const N: usize = 32> {
     trajectory: Trajectory<FrameDecision, N>,
     camera_counts: SampleCounts,
     last_camera: Option<Timestamp>,
+    wheel_grip: f32,
 }
 
 impl<const N: usize> ScalePipeline<N> {
@@ -96,6 +97,7 @@ impl<const N: usize> ScalePipeline<N> {
             trajectory: Trajectory::new(config.initial_body_pose, config.camera),
             camera_counts: SampleCounts::new(),
             last_camera: None,
+            wheel_grip: 1.0,
             config,
         })
     }
@@ -108,6 +110,26 @@ impl<const N: usize> ScalePipeline<N> {
     /// Switches the selection method from the next frame on.
     pub fn set_method(&mut self, method: SelectionMethod) {
         self.config.method = method;
+    }
+
+    /// The floor's grip under the wheels now, `(0, 1]` (the surface model's
+    /// estimate): below [`PipelineConfig::full_trust_grip`] the wheel
+    /// confidence is scaled by `grip / full_trust_grip` from the next frame
+    /// on, so on a slippery floor the wheels are trusted less before slip
+    /// shows. A value outside `(0, 1]` is refused with [`Reject::OutOfRange`]
+    /// and the previous grip kept.
+    pub fn set_wheel_grip(&mut self, grip: f32) -> Result<(), Reject> {
+        if grip.is_finite() && grip > 0.0 && grip <= 1.0 {
+            self.wheel_grip = grip;
+            Ok(())
+        } else {
+            Err(Reject::OutOfRange)
+        }
+    }
+
+    /// The wheel confidence factor of the floor's grip, `(0, 1]`.
+    pub fn grip_factor(&self) -> f32 {
+        (self.wheel_grip / self.config.full_trust_grip).min(1.0)
     }
 
     /// Adds one IMU sample.
@@ -246,7 +268,8 @@ impl<const N: usize> ScalePipeline<N> {
             cfg.slip.threshold,
             ws.coverage,
             ws.discontinuities,
-        ) * wheel_weight;
+        ) * wheel_weight
+            * self.grip_factor();
         let wheel = Transaction {
             metres: wheel_m,
             variance: Transaction::variance_for(
