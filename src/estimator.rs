@@ -295,6 +295,11 @@ impl<'b> Estimator<'b> {
             self.counts[Stream::Camera].rejected_one(Reject::NotReady);
             return Err(Reject::NotReady);
         };
+        // The floor's grip under the wheels sets how far the scale pipeline
+        // trusts them (grips are in (0, 1]; a refusal keeps the last one).
+        if let Some(s) = &self.surface {
+            let _ = self.scale.set_wheel_grip(s.grip_params(t).grip());
+        }
         let Some(motion) = frontend.process(t, image)? else {
             return Ok(None);
         };

@@ -12,7 +12,9 @@ use crate::faults::report::{FaultLog, FaultOutcome, Injected, faults_section, ou
 use crate::faults::{FaultPlan, Stage, Stream, inject};
 use crate::plot::Scene;
 use crate::progress::Progress;
-use crate::replay::{Feed, ReplayOptions, ReplayOutput, replay_feed, run_replay, write_outputs};
+use crate::replay::{
+    Feed, ReplayOptions, ReplayOutput, replay_feed, run_replay_with, write_outputs,
+};
 use crate::sim::scenario::{SCENARIOS, Scenario, generate_with};
 use std::collections::HashMap;
 use std::path::Path;
@@ -66,6 +68,17 @@ pub fn simulate_scenario(
     out: &Path,
     progress: bool,
 ) -> Result<ReplayOutput, CliError> {
+    simulate_scenario_with(scenario, seed, out, progress, ReplayOptions::default())
+}
+
+/// [`simulate_scenario`], the replay run as `options` say.
+pub fn simulate_scenario_with(
+    scenario: &Scenario,
+    seed: u64,
+    out: &Path,
+    progress: bool,
+    options: ReplayOptions,
+) -> Result<ReplayOutput, CliError> {
     let dataset = out.join("dataset");
     clear(&dataset)?;
     let (ds, _truth, _) = generate_with(
@@ -77,7 +90,7 @@ pub fn simulate_scenario(
     )?;
     write_dataset(&dataset, &ds)?;
     Scene::of(scenario).write(&dataset)?;
-    run_replay(&dataset, out, progress)
+    run_replay_with(&dataset, out, progress, options)
 }
 
 /// A run with faults: the replay, what was injected and what became of it.
@@ -115,6 +128,18 @@ pub fn simulate_faults(
     out: &Path,
     progress: bool,
     plan: &FaultPlan,
+) -> Result<FaultRun, CliError> {
+    simulate_faults_with(sc, seed, out, progress, plan, ReplayOptions::default())
+}
+
+/// [`simulate_faults`], the replay run as `options` say.
+pub fn simulate_faults_with(
+    sc: &Scenario,
+    seed: u64,
+    out: &Path,
+    progress: bool,
+    plan: &FaultPlan,
+    options: ReplayOptions,
 ) -> Result<FaultRun, CliError> {
     let dataset = out.join("dataset");
     clear(&dataset)?;
@@ -234,13 +259,7 @@ pub fn simulate_faults(
         stream_stage(Stream::Flow, d, &s);
     }
 
-    let mut output = replay_feed(
-        &ds,
-        &dataset,
-        progress,
-        ReplayOptions::default(),
-        Some(&feed),
-    )?;
+    let mut output = replay_feed(&ds, &dataset, progress, options, Some(&feed))?;
     let results = outcomes(&log, &output.outcomes);
     output.report["faults"] = faults_section(&log, &results);
     let h = output.health;

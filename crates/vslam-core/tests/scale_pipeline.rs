@@ -387,3 +387,25 @@ fn wheel_yaw_the_gyro_does_not_see_is_slip() {
         assert_eq!(d.scale.map(|s| s.source), Ok(ScaleSource::Flow));
     }
 }
+
+/// The floor's grip feeds the wheel confidence: on a floor of grip 0.6 the
+/// wheels (5 % long, not yet slipping) get 0.6 / 0.9 of the confidence they
+/// get on a firm floor, and the fused scale leans towards the flow's.
+#[test]
+fn low_grip_lowers_the_wheel_confidence_before_slip_shows() {
+    let mut firm: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    let mut slippery: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    assert_eq!(slippery.set_wheel_grip(0.0), Err(Reject::OutOfRange));
+    assert_eq!(slippery.set_wheel_grip(f32::NAN), Err(Reject::OutOfRange));
+    slippery.set_wheel_grip(0.6).unwrap();
+    firm.set_wheel_grip(0.95).unwrap();
+    let a = drive(&mut firm, 0, 10, 0.3, 1.05, 1.0, true);
+    let b = drive(&mut slippery, 0, 10, 0.3, 1.05, 1.0, true);
+    for (a, b) in a.iter().zip(&b).skip(2) {
+        assert!(!a.slip.exceeded && !b.slip.exceeded);
+        let ratio = b.wheel.confidence / a.wheel.confidence;
+        assert!((ratio - 0.6 / 0.9).abs() < 1e-3, "{ratio}");
+        let (sa, sb) = (a.scale.unwrap().scale, b.scale.unwrap().scale);
+        assert!((sb - D).abs() < (sa - D).abs(), "{sb} vs {sa}");
+    }
+}

@@ -6,10 +6,11 @@ use crate::faults::{FaultPlan, kinds_help};
 use crate::replay::{ReplayOptions, ReplayOutput, run_replay_with, summary_table};
 use crate::sim::scenario::SCENARIOS;
 use crate::sim::scenario::SHUTTLE_DEFAULT_S;
-use crate::simulate::{scenario_for, simulate_faults, simulate_scenario};
-use clap::Args;
+use crate::simulate::{scenario_for, simulate_faults_with, simulate_scenario_with};
+use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 
 /// Arguments of `host-sim simulate`.
 #[derive(Debug, Args)]
@@ -56,6 +57,107 @@ pub struct SimulateArgs {
     /// Chaos: mean faults per minute.
     #[arg(long, value_name = "N", default_value_t = 6.0, requires = "chaos")]
     pub chaos_rate: f64,
+    /// The scale pipeline's settings.
+    #[command(flatten)]
+    pub scale: ScaleArgs,
+}
+
+/// The scale pipeline's selection method, by its command-line name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScaleMethodArg {
+    /// 1. Flow when the slip exceeds the threshold, the wheels otherwise.
+    SlipThreshold,
+    /// 2. Flow when the wheel data are erroneous or an outlier.
+    WheelOutlier,
+    /// 3. The source with the higher confidence (ties: flow).
+    SourceConfidence,
+    /// 4. The scale value with the higher confidence (ties: flow).
+    ScaleConfidence,
+    /// 5. Inverse-variance fusion of the sources that pass the slip and outlier gates.
+    Fusion,
+    /// The flow sensor only.
+    FlowOnly,
+    /// The wheels only.
+    WheelOnly,
+}
+
+impl From<ScaleMethodArg> for SelectionMethod {
+    fn from(m: ScaleMethodArg) -> Self {
+        match m {
+            ScaleMethodArg::SlipThreshold => SelectionMethod::SlipThreshold,
+            ScaleMethodArg::WheelOutlier => SelectionMethod::Outlier,
+            ScaleMethodArg::SourceConfidence => SelectionMethod::SourceConfidence,
+            ScaleMethodArg::ScaleConfidence => SelectionMethod::ScaleConfidence,
+            ScaleMethodArg::Fusion => SelectionMethod::Fusion,
+            ScaleMethodArg::FlowOnly => SelectionMethod::FlowOnly,
+            ScaleMethodArg::WheelOnly => SelectionMethod::WheelOnly,
+        }
+    }
+}
+
+/// Which scale composes the camera path, by its command-line name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ComposeArg {
+    /// Each frame pair with its own selected scale (seed 000), default.
+    Pair,
+    /// The running robust scale (median of the last 15 pairs' scales).
+    Running,
+}
+
+impl From<ComposeArg> for ComposeScale {
+    fn from(c: ComposeArg) -> Self {
+        match c {
+            ComposeArg::Pair => ComposeScale::Pair,
+            ComposeArg::Running => ComposeScale::Running,
+        }
+    }
+}
+
+/// Which length of the wheel and flow motion is compared with `|T|`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DistanceArg {
+    /// The path length over the frame interval.
+    Path,
+    /// The chord: start-to-end displacement over the frame interval, default.
+    Chord,
+}
+
+impl From<DistanceArg> for Distance {
+    fn from(d: DistanceArg) -> Self {
+        match d {
+            DistanceArg::Path => Distance::Path,
+            DistanceArg::Chord => Distance::Chord,
+        }
+    }
+}
+
+/// The scale pipeline's settings shared by `simulate` and `replay`.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct ScaleArgs {
+    /// How each camera frame pair's metric scale is chosen from the wheels
+    /// and the flow sensor (report.json `frames[].method`); default fusion.
+    #[arg(long, value_enum, value_name = "METHOD")]
+    pub scale_method: Option<ScaleMethodArg>,
+    /// Which scale composes the camera path (vslam.tum): each pair's own
+    /// (`pair`, default) or the running robust scale (`running`).
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub compose: Option<ComposeArg>,
+    /// Which length of the wheel and flow motion over a frame pair is
+    /// compared with the camera's |T|: the path or the chord (default).
+    #[arg(long, value_enum, value_name = "LENGTH")]
+    pub distance: Option<DistanceArg>,
+}
+
+impl ScaleArgs {
+    /// `base` with these settings applied.
+    fn options(self, base: ReplayOptions) -> ReplayOptions {
+        ReplayOptions {
+            scale_method: self.scale_method.map(Into::into),
+            compose: self.compose.map(Into::into),
+            distance: self.distance.map(Into::into),
+            ..base
+        }
+    }
 }
 
 fn faults_long_help() -> String {
@@ -93,6 +195,9 @@ pub struct ReplayArgs {
     /// (report.json `counts`, the summary's `rejected by reason`).
     #[arg(long)]
     pub strict: bool,
+    /// The scale pipeline's settings.
+    #[command(flatten)]
+    pub scale: ScaleArgs,
 }
 
 fn print_summary(r: &ReplayOutput, out: &std::path::Path) {
@@ -184,6 +289,7 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
         };
     }
     let scenario = scenario_for(&a.scenario, a.duration)?;
+    let options = a.scale.options(ReplayOptions::default());
     println!(
         "simulating `{}` (seed {}) into {}",
         a.scenario,
@@ -192,11 +298,11 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
     );
     match a.faults.filter(|p| !p.is_empty()) {
         None => {
-            let r = simulate_scenario(&scenario, a.seed, &a.out, progress)?;
+            let r = simulate_scenario_with(&scenario, a.seed, &a.out, progress, options)?;
             print_summary(&r, &a.out);
         }
         Some(plan) => {
-            let run = simulate_faults(&scenario, a.seed, &a.out, progress, &plan)?;
+            let run = simulate_faults_with(&scenario, a.seed, &a.out, progress, &plan, options)?;
             print_summary(&run.output, &a.out);
             println!("faults (injected, expected outcome, as expected, observed):");
             for r in &run.results {
@@ -212,11 +318,11 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
 
 /// Runs `replay`.
 pub fn run_replay_cmd(a: ReplayArgs) -> Result<(), CliError> {
-    let options = ReplayOptions {
+    let options = a.scale.options(ReplayOptions {
         redetect_below: a.redetect_below,
         strict: a.strict,
         ..ReplayOptions::default()
-    };
+    });
     let r = run_replay_with(&a.dataset, &a.out, std::io::stderr().is_terminal(), options)?;
     print_summary(&r, &a.out);
     Ok(())

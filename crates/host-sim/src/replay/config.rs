@@ -197,7 +197,8 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
 /// dataset's [`robot_description`], the filter's sample counts and largest
 /// IMU step for the IMU's rate ([`imu_rate_hz`],
 /// [`FilterConfig::with_imu_rate`](traction::ego_ekf::FilterConfig::with_imu_rate)),
-/// and the surface model from `seg0`.
+/// the surface model from `seg0`, and the scale pipeline's selection method,
+/// composition and distance as `options` say.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
@@ -218,6 +219,15 @@ pub(super) fn estimator_config(
         )?),
         _ => None,
     };
+    if let Some(m) = options.scale_method {
+        config.scale.method = m;
+    }
+    if let Some(c) = options.compose {
+        config.scale.compose = c;
+    }
+    if let Some(d) = options.distance {
+        config.scale.distance = d;
+    }
     Ok(config)
 }
 

@@ -22,6 +22,7 @@ use crate::tum::TumPose;
 use serde_json::Value;
 use std::path::Path;
 use traction::reorder::Event;
+use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 use traction::vslam_core::{Reject, Timestamp};
 
 /// What a replay produced.
@@ -233,16 +234,28 @@ pub struct ReplayOptions {
     /// syntax errors are; otherwise they reach the estimator, which rejects
     /// and counts them ([`crate::asl::BadSamples`]).
     pub strict: bool,
+    /// The scale pipeline's selection method; `None` for its default
+    /// ([`SelectionMethod::Fusion`]).
+    pub scale_method: Option<SelectionMethod>,
+    /// Which scale composes the camera path; `None` for the pipeline's
+    /// default ([`ComposeScale::Pair`]).
+    pub compose: Option<ComposeScale>,
+    /// Which length of the wheel and flow motion is compared with the
+    /// camera's `|T|`; `None` for the pipeline's default.
+    pub distance: Option<Distance>,
 }
 
 impl Default for ReplayOptions {
-    /// The surface model on, the camera path's defaults, bad samples passed
-    /// to the estimator.
+    /// The surface model on, the camera path's and the scale pipeline's
+    /// defaults, bad samples passed to the estimator.
     fn default() -> Self {
         ReplayOptions {
             surface_model: true,
             redetect_below: None,
             strict: false,
+            scale_method: None,
+            compose: None,
+            distance: None,
         }
     }
 }

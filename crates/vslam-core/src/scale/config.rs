@@ -6,7 +6,7 @@ use super::flow::FlowParams;
 use super::robust::RobustParams;
 use super::select::{SelectParams, SelectionMethod};
 use super::slip::SlipParams;
-use super::transactions::WheelParams;
+use super::transactions::{Distance, WheelParams};
 use crate::adverse::{AdverseError, AdverseMemory, AdverseParams};
 use crate::geometry::Extrinsics;
 use crate::pose::Pose;
@@ -23,14 +23,17 @@ pub const SCALE_WINDOW: usize = 15;
 /// least recently used evicted beyond), 4 time slots each; 48 bytes a cell.
 pub type PipelineMemory = AdverseMemory<256, 4>;
 
-/// Which scale multiplies each frame's `t/d` in the composition.
+/// Which scale multiplies each frame pair's `t/d` in the composition.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ComposeScale {
-    /// The running robust scale (median over [`SCALE_WINDOW`] frames), default.
-    #[default]
+    /// The running robust scale (median over [`SCALE_WINDOW`] frames).
     Running,
-    /// This frame's selected scale (the running one when the frame has none).
-    Frame,
+    /// The pair's own selected scale, as the seed composes (the running one
+    /// when the pair has none: pure rotation, no usable source); default: it
+    /// follows a change of ceiling height at once, where the running median
+    /// lags by half its window (README, "Scale: composition").
+    #[default]
+    Pair,
 }
 
 /// Everything the pipeline is configured with.
@@ -40,6 +43,8 @@ pub struct PipelineConfig {
     pub method: SelectionMethod,
     /// Which scale the composition uses.
     pub compose: ComposeScale,
+    /// Which length of the wheel and flow motion is compared with `|T|`.
+    pub distance: Distance,
     /// Camera mounting `T_BC`.
     pub camera: Extrinsics,
     /// IMU mounting `T_BI`.
@@ -68,13 +73,17 @@ pub struct PipelineConfig {
     pub wheel_outlier_sigmas: f32,
     /// Coverage below which the wheel data count as erroneous.
     pub min_wheel_coverage: f32,
+    /// Floor grip at and above which the wheels get full confidence
+    /// ([`super::ScalePipeline::set_wheel_grip`]).
+    pub full_trust_grip: f32,
 }
 
 impl Default for PipelineConfig {
     fn default() -> Self {
         PipelineConfig {
             method: SelectionMethod::Fusion,
-            compose: ComposeScale::Running,
+            compose: ComposeScale::Pair,
+            distance: Distance::Chord,
             camera: Extrinsics::identity(),
             imu: Extrinsics::identity(),
             flow_optics: None,
@@ -89,6 +98,7 @@ impl Default for PipelineConfig {
             imu_max_step_ns: 50_000_000,
             wheel_outlier_sigmas: 4.0,
             min_wheel_coverage: 0.5,
+            full_trust_grip: 0.9,
         }
     }
 }
@@ -119,7 +129,7 @@ impl PipelineConfig {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         let non_negative = |v: f32| v.is_finite() && v >= 0.0;
         let unit = |v: f32| v.is_finite() && (0.0..=1.0).contains(&v);
-        let checks: [(bool, &'static str); 19] = [
+        let checks: [(bool, &'static str); 21] = [
             (positive(self.wheel.k), "wheel.k"),
             (non_negative(self.wheel.rel_sigma), "wheel.rel_sigma"),
             (non_negative(self.wheel.floor_sigma), "wheel.floor_sigma"),
@@ -138,6 +148,10 @@ impl PipelineConfig {
             ),
             (positive(self.slip.accel_tolerance), "slip.accel_tolerance"),
             (unit(self.slip.spin_ratio), "slip.spin_ratio"),
+            (
+                positive(self.slip.camera_tolerance),
+                "slip.camera_tolerance",
+            ),
             (positive(self.select.min_baseline), "select.min_baseline"),
             (
                 non_negative(self.select.camera_rel_sigma),
@@ -151,6 +165,10 @@ impl PipelineConfig {
             (positive(self.robust.rel_floor), "robust.rel_floor"),
             (positive(self.wheel_outlier_sigmas), "wheel_outlier_sigmas"),
             (unit(self.min_wheel_coverage), "min_wheel_coverage"),
+            (
+                positive(self.full_trust_grip) && self.full_trust_grip <= 1.0,
+                "full_trust_grip",
+            ),
         ];
         match checks.iter().find(|(ok, _)| !ok) {
             Some((_, name)) => Err(PipelineConfigError::OutOfRange(name)),

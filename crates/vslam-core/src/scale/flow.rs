@@ -17,7 +17,7 @@ use heapless::Deque;
 
 use super::confidence::{FlowConfidenceParams, flow_sample_confidence};
 use super::interval::{Coverage, overlap_fraction};
-use super::transactions::Transaction;
+use super::transactions::{Chord, Distance, Transaction};
 use crate::geometry::{Extrinsics, Vec2, Vec3};
 use crate::kinematics::{add_lever_arm, sensor_plane_to_body};
 use crate::reject::{Reject, SampleCounts};
@@ -80,6 +80,8 @@ impl Default for FlowParams {
 pub struct FlowSummary {
     /// `To`: path of the chosen body point, metres, uncovered time extrapolated.
     pub path: f32,
+    /// Chord of the chosen body point, metres, uncovered time extrapolated.
+    pub chord: f32,
     /// Time-weighted mean report confidence.
     pub confidence: f32,
     /// Fraction of the interval covered by reports.
@@ -210,6 +212,7 @@ impl<const N: usize> FlowStepWindow<N> {
     pub fn summarize(&self, t0: Timestamp, t1: Timestamp, point_b: &Vec3) -> FlowSummary {
         let mut cov = Coverage::new(t0, t1);
         let mut path = 0.0f32;
+        let mut chord = Chord::default();
         let mut conf = 0.0f32;
         let mut weight = 0.0f32;
         let mut samples = 0u16;
@@ -227,6 +230,7 @@ impl<const N: usize> FlowStepWindow<N> {
             let origin = Vec3::new(st.d_body.x, st.d_body.y, 0.0);
             let d = add_lever_arm(&origin, &yaw_vector(st.dyaw), point_b).xy();
             path += f * d.norm();
+            chord.add(f * d.x, f * d.y, f * st.dyaw);
             let w = f * st.t1.seconds_since(st.t0).unwrap_or(0.0);
             conf += w * st.confidence.clamp(0.0, 1.0);
             weight += w;
@@ -235,6 +239,7 @@ impl<const N: usize> FlowStepWindow<N> {
         let scale = if coverage > 0.0 { 1.0 / coverage } else { 0.0 };
         FlowSummary {
             path: path * scale,
+            chord: chord.length() * scale,
             confidence: if weight > 0.0 { conf / weight } else { 0.0 },
             coverage,
             samples,
@@ -242,19 +247,25 @@ impl<const N: usize> FlowStepWindow<N> {
         }
     }
 
-    /// The transaction `To` over `[t0, t1]` for the body point `point_b`.
+    /// The transaction `To` over `[t0, t1]` for the body point `point_b`,
+    /// its length measured as `distance` says.
     pub fn transaction(
         &self,
         t0: Timestamp,
         t1: Timestamp,
         point_b: &Vec3,
+        distance: Distance,
     ) -> (Transaction, FlowSummary) {
         let s = self.summarize(t0, t1, point_b);
         let confidence = (s.confidence * s.coverage).clamp(0.0, 1.0);
+        let metres = match distance {
+            Distance::Path => s.path,
+            Distance::Chord => s.chord,
+        };
         let t = Transaction {
-            metres: s.path,
+            metres,
             variance: Transaction::variance_for(
-                s.path,
+                metres,
                 self.params.rel_sigma,
                 self.params.floor_sigma,
                 confidence,
@@ -335,7 +346,7 @@ mod tests {
             ..sample(200, 100, 0)
         };
         w.push_sample(&dark, &o, 0.0).unwrap();
-        let (t, s) = w.transaction(Timestamp(0), Timestamp(200), &Vec3::zeros());
+        let (t, s) = w.transaction(Timestamp(0), Timestamp(200), &Vec3::zeros(), Distance::Path);
         assert_eq!(s.blank, 1);
         assert!((t.confidence - 0.5).abs() < 1e-6);
         assert!((t.metres - 0.008).abs() < 1e-6);

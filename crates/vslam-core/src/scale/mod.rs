@@ -32,4 +32,4 @@ pub use pipeline::{
 pub use robust::{RobustEstimate, RobustScale};
 pub use select::{NoScale, ScaleEstimate, ScaleSource, SelectionMethod};
 pub use slip::{SlipCause, SlipReport, disagreement};
-pub use transactions::Transaction;
+pub use transactions::{Distance, Transaction};

@@ -31,7 +31,7 @@ use super::raw_flow::{FeatureMotion, RawFlowError, RawFlowOptics, raw_flow_step}
 use super::robust::{RobustEstimate, RobustScale};
 use super::select::{NoScale, SelectionInput, SelectionMethod, select};
 use super::slip::{SlipEvidence, SlipReport, assess, disagreement};
-use super::transactions::{Transaction, WheelWindow};
+use super::transactions::{Distance, Transaction, WheelWindow};
 use crate::adverse::{AdverseKind, AdverseMemory, SensorKind};
 use crate::geometry::Vec2;
 use crate::pose::{Pose, Trajectory};
@@ -81,6 +81,7 @@ pub struct ScalePipeline<const N: usize = 32> {
     trajectory: Trajectory<FrameDecision, N>,
     camera_counts: SampleCounts,
     last_camera: Option<Timestamp>,
+    wheel_grip: f32,
 }
 
 impl<const N: usize> ScalePipeline<N> {
@@ -96,6 +97,7 @@ impl<const N: usize> ScalePipeline<N> {
             trajectory: Trajectory::new(config.initial_body_pose, config.camera),
             camera_counts: SampleCounts::new(),
             last_camera: None,
+            wheel_grip: 1.0,
             config,
         })
     }
@@ -108,6 +110,26 @@ impl<const N: usize> ScalePipeline<N> {
     /// Switches the selection method from the next frame on.
     pub fn set_method(&mut self, method: SelectionMethod) {
         self.config.method = method;
+    }
+
+    /// The floor's grip under the wheels now, `(0, 1]` (the surface model's
+    /// estimate): below [`PipelineConfig::full_trust_grip`] the wheel
+    /// confidence is scaled by `grip / full_trust_grip` from the next frame
+    /// on, so on a slippery floor the wheels are trusted less before slip
+    /// shows. A value outside `(0, 1]` is refused with [`Reject::OutOfRange`]
+    /// and the previous grip kept.
+    pub fn set_wheel_grip(&mut self, grip: f32) -> Result<(), Reject> {
+        if grip.is_finite() && grip > 0.0 && grip <= 1.0 {
+            self.wheel_grip = grip;
+            Ok(())
+        } else {
+            Err(Reject::OutOfRange)
+        }
+    }
+
+    /// The wheel confidence factor of the floor's grip, `(0, 1]`.
+    pub fn grip_factor(&self) -> f32 {
+        (self.wheel_grip / self.config.full_trust_grip).min(1.0)
     }
 
     /// Adds one IMU sample.
@@ -210,7 +232,11 @@ impl<const N: usize> ScalePipeline<N> {
             Vec2::new(p.x, p.y)
         };
         let ws = self.wheel.summarize(t0, t1, &point);
-        let (flow_raw, fs) = self.flow.transaction(t0, t1, &point);
+        let wheel_m = match cfg.distance {
+            Distance::Path => ws.path,
+            Distance::Chord => ws.chord,
+        };
+        let (flow_raw, fs) = self.flow.transaction(t0, t1, &point, cfg.distance);
         let imu = self.imu.summarize(t0, t1);
         let imu_ok = imu.coverage >= 0.5;
         let before = self.robust.estimate();
@@ -221,7 +247,7 @@ impl<const N: usize> ScalePipeline<N> {
         let slip = assess(
             &SlipEvidence {
                 dt,
-                wheel_path: ws.path,
+                wheel_path: wheel_m,
                 wheel_yaw: ws.yaw,
                 wheel_accel: ws.accel,
                 wheel_discontinuities: ws.discontinuities,
@@ -242,11 +268,12 @@ impl<const N: usize> ScalePipeline<N> {
             cfg.slip.threshold,
             ws.coverage,
             ws.discontinuities,
-        ) * wheel_weight;
+        ) * wheel_weight
+            * self.grip_factor();
         let wheel = Transaction {
-            metres: ws.path,
+            metres: wheel_m,
             variance: Transaction::variance_for(
-                ws.path,
+                wheel_m,
                 cfg.wheel.rel_sigma,
                 cfg.wheel.floor_sigma,
                 wc,
@@ -269,15 +296,15 @@ impl<const N: usize> ScalePipeline<N> {
         // Wheel data erroneous (gaps, glitches, too little coverage) or an
         // outlier against the flow or against the running scale.
         let erroneous =
-            !ws.path.is_finite() || ws.coverage < cfg.min_wheel_coverage || ws.discontinuities > 0;
+            !wheel_m.is_finite() || ws.coverage < cfg.min_wheel_coverage || ws.discontinuities > 0;
         let vs_flow = flow.confidence >= cfg.slip.min_flow_confidence && {
             let wheel_var =
-                Transaction::variance_for(ws.path, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0);
+                Transaction::variance_for(wheel_m, cfg.wheel.rel_sigma, cfg.wheel.floor_sigma, 1.0);
             let k = cfg.wheel_outlier_sigmas;
-            disagreement(ws.path, wheel_var, flow.metres, flow.variance) > k * k
+            disagreement(wheel_m, wheel_var, flow.metres, flow.variance) > k * k
         };
         let vs_running = baseline >= cfg.select.min_baseline
-            && before.is_some_and(|e| e.z(ws.path / baseline) > cfg.robust.gate_sigmas);
+            && before.is_some_and(|e| e.z(wheel_m / baseline) > cfg.robust.gate_sigmas);
         let wheel_outlier = erroneous || vs_flow || vs_running;
 
         let input = SelectionInput {
@@ -296,7 +323,7 @@ impl<const N: usize> ScalePipeline<N> {
         };
         let running = self.robust.estimate();
         let applied = match (cfg.compose, scale) {
-            (ComposeScale::Frame, Ok(e)) => Some(e.scale),
+            (ComposeScale::Pair, Ok(e)) => Some(e.scale),
             _ => running.map(|r| r.scale).or(scale.ok().map(|e| e.scale)),
         };
 

@@ -7,9 +7,11 @@
 //!
 //! 1. [`SelectionMethod::SlipThreshold`]: flow when slip exceeds the threshold, wheel otherwise.
 //! 2. [`SelectionMethod::Outlier`]: flow when the wheel data are erroneous or an outlier.
-//! 3. [`SelectionMethod::SourceConfidence`]: the source with the higher confidence.
+//! 3. [`SelectionMethod::SourceConfidence`]: the source with the higher
+//!    confidence; equal confidences pick the flow sensor.
 //! 4. [`SelectionMethod::ScaleConfidence`]: each scale value gets a confidence
-//!    (source, camera, agreement with the running scale); the better wins.
+//!    (source, camera, agreement with the running scale); the better wins,
+//!    the flow sensor's on a tie.
 //! 5. [`SelectionMethod::Fusion`] (default): inverse-variance combination of the
 //!    sources that pass the slip and outlier gates.
 //!
@@ -29,9 +31,9 @@ pub enum SelectionMethod {
     SlipThreshold,
     /// 2. Flow when the wheel data are erroneous or an outlier.
     Outlier,
-    /// 3. The source with the higher confidence.
+    /// 3. The source with the higher confidence (equal: the flow sensor).
     SourceConfidence,
-    /// 4. The scale value with the higher confidence.
+    /// 4. The scale value with the higher confidence (equal: the flow sensor).
     ScaleConfidence,
     /// 5. Inverse-variance fusion with slip and outlier gating.
     #[default]
@@ -242,11 +244,12 @@ pub fn select(
         SelectionMethod::SlipThreshold => prefer_wheel_unless(input.slip.exceeded, w, o),
         SelectionMethod::Outlier => prefer_wheel_unless(input.wheel_outlier, w, o),
         SelectionMethod::SourceConfidence => {
-            let flow_better = input.flow.confidence > input.wheel.confidence;
-            prefer_wheel_unless(flow_better && o.is_some(), w, o)
+            // Equal confidences pick the flow sensor.
+            let flow_at_least = input.flow.confidence >= input.wheel.confidence;
+            prefer_wheel_unless(flow_at_least && o.is_some(), w, o)
         }
         SelectionMethod::ScaleConfidence => match (w, o) {
-            (Some(a), Some(b)) if b.confidence > a.confidence => estimate(o, ScaleSource::Flow),
+            (Some(a), Some(b)) if b.confidence >= a.confidence => estimate(o, ScaleSource::Flow),
             _ => prefer_wheel_unless(false, w, o),
         },
         SelectionMethod::Fusion => {
@@ -260,5 +263,63 @@ pub fn select(
         Ok(chosen)
     } else {
         Err(NoScale::Degenerate)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tx(metres: f32, confidence: f32) -> Transaction {
+        Transaction {
+            metres,
+            variance: Transaction::variance_for(metres, 0.02, 0.0005, confidence),
+            confidence,
+            coverage: 1.0,
+        }
+    }
+
+    /// Wheels and flow with the same confidence; the wheels report 2 % more.
+    fn tie(confidence: f32) -> SelectionInput {
+        SelectionInput {
+            baseline: 0.012,
+            camera_confidence: 0.9,
+            wheel: tx(0.0306, confidence),
+            flow: tx(0.03, confidence),
+            slip: SlipReport::NONE,
+            wheel_outlier: false,
+            robust: None,
+        }
+    }
+
+    #[test]
+    fn equal_confidences_pick_the_flow_sensor() {
+        let p = SelectParams::default();
+        for c in [0.3, 0.8, 1.0] {
+            for method in [
+                SelectionMethod::SourceConfidence,
+                SelectionMethod::ScaleConfidence,
+            ] {
+                let e = select(method, &tie(c), &p).unwrap();
+                assert_eq!(e.source, ScaleSource::Flow, "{method:?} at {c}");
+                assert!((e.scale - 2.5).abs() < 1e-4, "{method:?}: {}", e.scale);
+            }
+        }
+    }
+
+    #[test]
+    fn a_more_confident_wheel_still_wins() {
+        let p = SelectParams::default();
+        let mut input = tie(0.8);
+        input.wheel.confidence = 0.9;
+        for method in [
+            SelectionMethod::SourceConfidence,
+            SelectionMethod::ScaleConfidence,
+        ] {
+            assert_eq!(
+                select(method, &input, &p).unwrap().source,
+                ScaleSource::Wheel
+            );
+        }
     }
 }

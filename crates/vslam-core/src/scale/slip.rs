@@ -8,7 +8,9 @@
 //! 2. wheels turning while the camera sees no translation (spinning in place);
 //! 3. wheel-derived yaw rate vs the gyro, wheel acceleration vs the
 //!    accelerometer;
-//! 4. discontinuities in the wheel data (gaps, rejected glitches).
+//! 4. discontinuities in the wheel data (gaps, rejected glitches);
+//! 5. wheels and camera both moving but disagreeing (seed [0136]): the wheel
+//!    path against the camera's metric motion `|T| s` at the running scale.
 //!
 //! The amount is on the scale of indicator 1 (a fraction of the wheel path);
 //! each other indicator is mapped so that its tolerance equals the threshold,
@@ -75,6 +77,10 @@ pub struct SlipParams {
     pub spin_ratio: f32,
     /// Baseline `|T|` below which the camera sees no translation when no scale is known.
     pub min_baseline: f32,
+    /// Wheel/camera relative disagreement `|Tw - |T| s| / max` that counts
+    /// as the threshold (looser than wheel/flow: the running scale lags a
+    /// change of ceiling height).
+    pub camera_tolerance: f32,
 }
 
 impl Default for SlipParams {
@@ -87,6 +93,7 @@ impl Default for SlipParams {
             accel_tolerance: 1.5,
             spin_ratio: 0.2,
             min_baseline: 0.002,
+            camera_tolerance: 0.3,
         }
     }
 }
@@ -106,6 +113,8 @@ pub enum SlipCause {
     WheelVsAccel,
     /// The wheel data jump or have gaps.
     Discontinuity,
+    /// Wheels and camera both moved but disagree.
+    WheelVsCamera,
 }
 
 /// The slip check's verdict over one interval.
@@ -121,6 +130,8 @@ pub struct SlipReport {
     pub wheel_vs_flow: Option<f32>,
     /// Wheels turned while the camera saw no translation.
     pub spinning: bool,
+    /// `|Tw - |T| s| / max(Tw, |T| s)` when both moved and the scale is known.
+    pub wheel_vs_camera: Option<f32>,
     /// `|wheel yaw - gyro yaw| / dt`, rad/s.
     pub yaw_rate_error: Option<f32>,
     /// `|wheel accel - accelerometer|`, m/s^2.
@@ -137,6 +148,7 @@ impl SlipReport {
         cause: SlipCause::None,
         wheel_vs_flow: None,
         spinning: false,
+        wheel_vs_camera: None,
         yaw_rate_error: None,
         accel_error: None,
         discontinuities: 0,
@@ -187,6 +199,21 @@ pub fn assess(e: &SlipEvidence, p: &SlipParams) -> SlipReport {
             f32::MAX
         }
     };
+    // 5. Wheels and camera both moving but disagreeing.
+    if let Some(s) = e.scale
+        && !report.spinning
+    {
+        let camera = finite_or(e.camera_baseline * s, f32::MAX);
+        if wheel >= p.min_path && camera >= p.min_path {
+            let r = libm::fabsf(wheel - camera) / wheel.max(camera);
+            report.wheel_vs_camera = Some(r);
+            consider(
+                per_tol(r, p.camera_tolerance),
+                SlipCause::WheelVsCamera,
+                &mut report,
+            );
+        }
+    }
     // 3. Wheel vs IMU.
     if let Some(g) = e.imu_yaw
         && e.dt > 0.0
@@ -311,6 +338,43 @@ mod tests {
             &p,
         );
         assert!(r.exceeded);
+    }
+
+    /// Seed [0136]: wheels and camera both moving but disagreeing is slip,
+    /// also when no flow sensor can tell.
+    #[test]
+    fn wheels_and_camera_moving_but_disagreeing_is_slip() {
+        let p = SlipParams::default();
+        let no_flow = SlipEvidence {
+            flow_path: 0.0,
+            flow_confidence: 0.0,
+            ..calm()
+        };
+        // The camera saw 0.012 x 2.5 = 3 cm; the wheels agree within 2 %.
+        let r = assess(&no_flow, &p);
+        assert!(!r.exceeded, "{r:?}");
+        assert!(r.wheel_vs_camera.is_some_and(|v| v < 0.02), "{r:?}");
+        // The wheels report 5 cm: the camera moved, but 40 % less.
+        let r = assess(
+            &SlipEvidence {
+                wheel_path: 0.05,
+                ..no_flow
+            },
+            &p,
+        );
+        assert!(r.exceeded && !r.spinning, "{r:?}");
+        assert_eq!(r.cause, SlipCause::WheelVsCamera);
+        // Without a running scale the camera's motion is not metric.
+        let r = assess(
+            &SlipEvidence {
+                wheel_path: 0.05,
+                scale: None,
+                ..no_flow
+            },
+            &p,
+        );
+        assert_eq!(r.wheel_vs_camera, None);
+        assert!(!r.exceeded, "{r:?}");
     }
 
     #[test]

@@ -6,6 +6,12 @@
 //! proportion to time ([`super::interval`]). `K` is the odometry calibration
 //! factor (seed: "the path length of the robot between the two frames").
 //!
+//! Beside the path, each summary has the chord: the straight displacement of
+//! the point from the interval's start to its end, the steps rotated into the
+//! start's body frame by the heading accumulated so far ([`Chord`]). The
+//! camera's `|T|` is a chord; [`Distance`] says which of the two a pipeline
+//! compares with it.
+//!
 //! The summed point is selectable: the body origin (the robot's path, the
 //! default) or another body point such as the camera's optical centre. The
 //! camera measures the motion of its own centre, which differs from the body
@@ -64,6 +70,42 @@ impl Transaction {
     }
 }
 
+/// Which length of a source's motion over a frame interval is compared with
+/// the camera's `|T|`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Distance {
+    /// The path length: the sum of the steps' lengths (the seed's wording).
+    Path,
+    /// The chord: the length of the summed displacement, start to end;
+    /// default: it is what `|T|` measures (README, "Scale: path or chord").
+    #[default]
+    Chord,
+}
+
+/// Sums planar steps given in the body frame at each step's start into the
+/// displacement in the body frame at the first step's start.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Chord {
+    x: f32,
+    y: f32,
+    heading: f32,
+}
+
+impl Chord {
+    /// Adds a step `(dx, dy)` followed by a heading change `dyaw`.
+    pub fn add(&mut self, dx: f32, dy: f32, dyaw: f32) {
+        let (s, c) = libm::sincosf(self.heading);
+        self.x += c * dx - s * dy;
+        self.y += s * dx + c * dy;
+        self.heading += dyaw;
+    }
+
+    /// The displacement's length.
+    pub fn length(&self) -> f32 {
+        libm::hypotf(self.x, self.y)
+    }
+}
+
 /// Wheel odometry settings for the transaction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelParams {
@@ -93,6 +135,8 @@ impl Default for WheelParams {
 pub struct WheelSummary {
     /// `Tw`: path of the chosen point, metres, `K` applied, uncovered time extrapolated.
     pub path: f32,
+    /// Chord of the chosen point, metres, `K` applied, uncovered time extrapolated.
+    pub chord: f32,
     /// Heading change the wheels report, radians.
     pub yaw: f32,
     /// Fraction of the interval covered by samples.
@@ -194,6 +238,7 @@ impl<const N: usize> WheelWindow<N> {
     pub fn summarize(&self, t0: Timestamp, t1: Timestamp, point_b: &Vec3) -> WheelSummary {
         let mut cov = Coverage::new(t0, t1);
         let mut path = 0.0f32;
+        let mut chord = Chord::default();
         let mut yaw = 0.0f32;
         let mut samples = 0u16;
         let mut discontinuities = 0u16;
@@ -215,7 +260,9 @@ impl<const N: usize> WheelWindow<N> {
             prev_end = Some(d.t1);
             cov.add(d.t0, d.t1, t0, t1);
             samples = samples.saturating_add(1);
-            path += f * point_step(d, point_b).norm();
+            let step = f * point_step(d, point_b);
+            path += step.norm();
+            chord.add(step.x, step.y, f * d.dyaw);
             yaw += f * d.dyaw;
             let dt = d.t1.seconds_since(d.t0).unwrap_or(0.0);
             if dt > 0.0 {
@@ -244,6 +291,7 @@ impl<const N: usize> WheelWindow<N> {
         let scale = if coverage > 0.0 { 1.0 / coverage } else { 0.0 };
         WheelSummary {
             path: path * scale * self.params.k,
+            chord: chord.length() * scale * self.params.k,
             yaw: yaw * scale,
             coverage,
             discontinuities,
@@ -329,5 +377,49 @@ mod tests {
         let chord = 2.0 * 0.1 * libm::sinf(0.25);
         assert!((cam.path - chord).abs() < 1e-6);
         assert!((cam.yaw - 0.5).abs() < 1e-6);
+    }
+
+    /// An arc of radius 0.5 m turning 0.6 rad in 20 odometry deltas (the
+    /// robot's origin; a frame interval while turning hard): the chord is
+    /// what the camera's `|T|` measures, `2 R sin(theta / 2)`; the path is
+    /// `R theta`, 1.5 % longer.
+    #[test]
+    fn on_an_arc_the_chord_is_the_straight_displacement() {
+        let (r, theta, n) = (0.5f32, 0.6f32, 20u64);
+        let step_yaw = theta / n as f32;
+        let step_len = 2.0 * r * libm::sinf(step_yaw / 2.0);
+        let mut w: WheelWindow<32> = WheelWindow::new(WheelParams::default());
+        for i in 0..n {
+            // Each delta's translation in the body frame at its start.
+            let (sn, c) = libm::sincosf(step_yaw / 2.0);
+            w.push(&OdometryDelta {
+                t0: Timestamp(i * 10_000_000),
+                t1: Timestamp((i + 1) * 10_000_000),
+                translation: Vec3::new(c * step_len, sn * step_len, 0.0),
+                dyaw: step_yaw,
+                path_length: step_len,
+            })
+            .unwrap();
+        }
+        let s = w.summarize(Timestamp(0), Timestamp(n * 10_000_000), &Vec3::zeros());
+        let chord = 2.0 * r * libm::sinf(theta / 2.0);
+        assert!((s.chord - chord).abs() < 1e-5, "{} vs {chord}", s.chord);
+        assert!((s.path - r * theta).abs() < 1e-4, "{}", s.path);
+        assert!(s.path / s.chord > 1.014);
+    }
+
+    #[test]
+    fn a_chord_of_a_straight_line_is_its_path() {
+        let mut c = Chord::default();
+        for _ in 0..5 {
+            c.add(0.01, 0.0, 0.0);
+        }
+        assert!((c.length() - 0.05).abs() < 1e-7);
+        // Out and back: path 0.1 m, chord zero.
+        c.add(0.0, 0.0, core::f32::consts::PI);
+        for _ in 0..5 {
+            c.add(0.01, 0.0, 0.0);
+        }
+        assert!(c.length() < 1e-6, "{}", c.length());
     }
 }
