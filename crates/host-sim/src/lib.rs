@@ -31,6 +31,7 @@
 #![allow(dead_code)]
 
 pub mod asl;
+pub mod calibrate;
 pub mod chaos;
 pub mod chips;
 pub mod cli;

@@ -28,7 +28,7 @@
 pub(crate) mod csvio;
 mod labels;
 mod meta;
-mod yaml;
+pub(crate) mod yaml;
 
 pub use labels::{LABELS_FILE, Labels};
 pub use meta::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta};

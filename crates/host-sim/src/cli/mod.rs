@@ -15,6 +15,7 @@ macro_rules! outln {
 }
 
 pub mod accuracy;
+pub mod calibrate;
 pub mod homography;
 pub mod import;
 pub mod run;

@@ -195,6 +195,10 @@ pub struct ReplayArgs {
     /// (report.json `counts`, the summary's `rejected by reason`).
     #[arg(long)]
     pub strict: bool,
+    /// Wheel radii and track from FILE (`host-sim calibrate --out FILE`)
+    /// in place of the dataset's `wheel0/sensor.yaml` geometry.
+    #[arg(long, value_name = "FILE")]
+    pub wheels: Option<PathBuf>,
     /// The scale pipeline's settings.
     #[command(flatten)]
     pub scale: ScaleArgs,
@@ -321,6 +325,11 @@ pub fn run_replay_cmd(a: ReplayArgs) -> Result<(), CliError> {
     let options = a.scale.options(ReplayOptions {
         redetect_below: a.redetect_below,
         strict: a.strict,
+        wheels: a
+            .wheels
+            .as_deref()
+            .map(crate::calibrate::WheelGeometry::read)
+            .transpose()?,
         ..ReplayOptions::default()
     });
     let r = run_replay_with(&a.dataset, &a.out, std::io::stderr().is_terminal(), options)?;

@@ -4,6 +4,7 @@
 
 use super::ReplayOptions;
 use crate::asl::{Dataset, SegMeta, WheelMeta};
+use crate::calibrate::WheelGeometry;
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
 use traction::ego_ekf::surface::{
@@ -86,6 +87,16 @@ fn surface_config(
 /// and, without `imu0`, an identity mounting with [`ImuNoise::default`]. A
 /// description that does not validate is refused with the file to blame.
 pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, CliError> {
+    robot_description_with(ds, root, None)
+}
+
+/// [`robot_description`] with the wheel radii and track of `wheels` in place
+/// of `wheel0/sensor.yaml`'s (`replay --wheels FILE`, from `calibrate`).
+pub fn robot_description_with(
+    ds: &Dataset,
+    root: &Path,
+    wheels: Option<WheelGeometry>,
+) -> Result<RobotDescription, CliError> {
     let yaml = |s: &str| sensor_yaml(root, s);
     let preset = RobotDescription::robot_vacuum();
     let imu = match &ds.imu {
@@ -117,10 +128,15 @@ pub fn robot_description(ds: &Dataset, root: &Path) -> Result<RobotDescription, 
                 }
                 None => (preset.wheels.counts_per_revolution, 1.0),
             };
+            let g = wheels.unwrap_or(WheelGeometry {
+                radius_left: m.wheel_radius_left,
+                radius_right: m.wheel_radius_right,
+                track: m.wheel_base,
+            });
             Wheels {
-                radius_left: (m.wheel_radius_left * k) as f32,
-                radius_right: (m.wheel_radius_right * k) as f32,
-                track: m.wheel_base as f32,
+                radius_left: (g.radius_left * k) as f32,
+                radius_right: (g.radius_right * k) as f32,
+                track: g.track as f32,
                 track_factor: m.track_factor as f32,
                 counts_per_revolution: counts,
                 ..preset.wheels
@@ -204,7 +220,7 @@ pub(super) fn estimator_config(
     root: &Path,
     options: ReplayOptions,
 ) -> Result<EstimatorConfig, CliError> {
-    let robot = robot_description(ds, root)?;
+    let robot = robot_description_with(ds, root, options.wheels)?;
     let mut config = EstimatorConfig::from_robot(&robot)
         .map_err(|e| CliError::file(root, format!("configuration: {e}")))?;
     if let Some(hz) = imu_rate_hz(ds) {

@@ -11,7 +11,7 @@ mod config;
 mod report;
 mod run;
 
-pub use config::{imu_rate_hz, robot_description};
+pub use config::{imu_rate_hz, robot_description, robot_description_with};
 pub use report::{summary_table, write_outputs};
 
 use crate::asl::Dataset;
@@ -218,7 +218,7 @@ pub struct Feed {
 }
 
 /// How a replay is run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReplayOptions {
     /// Use the segmentation maps (when the dataset has them) for the
     /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
@@ -243,6 +243,10 @@ pub struct ReplayOptions {
     /// Which length of the wheel and flow motion is compared with the
     /// camera's `|T|`; `None` for the pipeline's default.
     pub distance: Option<Distance>,
+    /// Wheel radii and track in place of `wheel0/sensor.yaml`'s (`replay
+    /// --wheels FILE`, e.g. from `host-sim calibrate`); `None` keeps the
+    /// dataset's.
+    pub wheels: Option<crate::calibrate::WheelGeometry>,
 }
 
 impl Default for ReplayOptions {
@@ -256,6 +260,7 @@ impl Default for ReplayOptions {
             scale_method: None,
             compose: None,
             distance: None,
+            wheels: None,
         }
     }
 }
