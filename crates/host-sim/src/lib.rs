@@ -46,6 +46,7 @@ pub mod progress;
 pub mod replay;
 pub mod sim;
 pub mod simulate;
+pub mod terrain;
 pub mod tum;
 
 pub use error::CliError;

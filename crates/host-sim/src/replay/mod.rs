@@ -7,6 +7,7 @@
 //! configuration from the dataset's metadata, `run.rs` is the loop through
 //! the estimator, `report.rs` writes the report and the summary.
 
+mod aids;
 mod config;
 mod report;
 mod run;
@@ -46,6 +47,9 @@ pub struct ReplayOutput {
     /// The IMU's rate the filter was set for ([`imu_rate_hz`]), Hz, and
     /// its first sample's time stamp; `None` without an IMU.
     pub imu: Option<(f32, Timestamp)>,
+    /// The wheels' status record after every wheel sample the filter took
+    /// (innovations and their variances; report.json `aids` sums them).
+    pub wheel_records: Vec<traction::ego_ekf::aid_status::WheelStatus>,
 }
 
 /// The filter's health, checked after every processed IMU sample once the

@@ -206,12 +206,15 @@ pub(super) struct Collected {
     logged: PerStream<u32>,
     /// The estimator's counts at the last health check.
     last_counts: StreamCounts,
+    /// Innovation and NIS statistics per aid.
+    pub aids: super::aids::AidStats,
 }
 
 impl Collected {
     /// One sample the estimator processed.
     fn handle(&mut self, p: Processed, est: &Estimator<'_>) {
         self.log(processed_outcome(&p));
+        self.aids.observe(est.ekf());
         if self.check_health && matches!(p, Processed::Imu { .. }) {
             self.health.check(est.ekf(), p.t());
             let now = est.counts();
@@ -426,6 +429,7 @@ pub(super) fn run(
         errors,
         outcomes: c.outcomes,
         health: c.health,
+        wheel_records: c.aids.wheel_records,
     })
 }
 
