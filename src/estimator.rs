@@ -30,6 +30,7 @@ use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
 use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
 use heapless::Deque;
+use vslam_core::adverse::AdverseError;
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, WheelTicks};
@@ -463,6 +464,22 @@ impl<'b> Estimator<'b> {
     /// The scale pipeline (camera trajectory, decisions, adverse memory).
     pub fn scale(&self) -> &ScalePipeline<TRAJECTORY_CAPACITY> {
         &self.scale
+    }
+
+    /// Replaces the scale pipeline's adverse-event memory with the one in
+    /// `record` (written by [`Estimator::export_memory`], e.g. at the end of
+    /// an earlier run); a record that is corrupt or was made with other
+    /// memory settings is refused and the memory kept
+    /// ([`ScalePipeline::restore_memory`]).
+    pub fn restore_memory(&mut self, record: &[u8]) -> Result<(), AdverseError> {
+        self.scale.restore_memory(record)
+    }
+
+    /// Writes the scale pipeline's adverse-event memory into `out` (at least
+    /// [`PipelineMemory::RECORD_LEN`](vslam_core::scale::pipeline::PipelineMemory::RECORD_LEN)
+    /// bytes) as a record; gives the bytes written.
+    pub fn export_memory(&self, out: &mut [u8]) -> Result<usize, AdverseError> {
+        self.scale.memory().export(out)
     }
 
     /// The surface model, if configured.

@@ -164,6 +164,9 @@ pub enum AdverseError {
     BadChecksum,
     /// The record's cells are more than the capacity, or one cell twice.
     BadCells,
+    /// The record is sound but was made with other settings (cell size,
+    /// slots, decay, weight) than the memory it should replace.
+    SettingsMismatch,
 }
 
 impl fmt::Display for AdverseError {
@@ -178,6 +181,9 @@ impl fmt::Display for AdverseError {
             AdverseError::ShapeMismatch => f.write_str("record grid shape mismatch"),
             AdverseError::BadChecksum => f.write_str("record checksum mismatch"),
             AdverseError::BadCells => f.write_str("record cells over capacity or repeated"),
+            AdverseError::SettingsMismatch => {
+                f.write_str("record made with other memory settings than the configured ones")
+            }
         }
     }
 }

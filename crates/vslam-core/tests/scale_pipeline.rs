@@ -277,6 +277,38 @@ fn spinning_in_place_is_slip_and_the_memory_learns_the_place() {
 }
 
 #[test]
+fn a_restored_memory_must_be_sound_and_made_with_the_same_settings() {
+    use vslam_core::adverse::{AdverseError, AdverseParams};
+    use vslam_core::scale::pipeline::PipelineMemory;
+    let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
+    drive(&mut p, 1_000, 5, 0.3, 1.0, 0.0, false);
+    let mut buf = vec![0u8; PipelineMemory::RECORD_LEN];
+    p.memory().export(&mut buf).unwrap();
+    assert!(p.memory().cells() > 0);
+
+    let mut q: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    let empty = q.memory().clone();
+    // Corrupt: refused, the memory kept as it was.
+    let mut bad = buf.clone();
+    bad[60] ^= 0x10;
+    assert_eq!(q.restore_memory(&bad), Err(AdverseError::BadChecksum));
+    assert_eq!(q.memory(), &empty);
+    // Sound, but made with another cell size than this pipeline's.
+    let mut other = config(SelectionMethod::Fusion);
+    other.adverse = AdverseParams {
+        cell_size: 0.25,
+        ..other.adverse
+    };
+    let mut r: ScalePipeline = ScalePipeline::new(other).unwrap();
+    assert_eq!(r.restore_memory(&buf), Err(AdverseError::SettingsMismatch));
+    assert_eq!(r.memory().cells(), 0);
+    // Sound and with the same settings: restored.
+    assert_eq!(q.restore_memory(&buf), Ok(()));
+    assert_eq!(q.memory(), p.memory());
+}
+
+#[test]
 fn slip_episode_switches_to_flow_and_back_in_the_pipeline() {
     let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::SlipThreshold)).unwrap();
     let calm = drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);

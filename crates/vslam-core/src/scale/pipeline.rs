@@ -32,7 +32,7 @@ use super::robust::{RobustEstimate, RobustScale};
 use super::select::{NoScale, SelectionInput, SelectionMethod, select};
 use super::slip::{SlipEvidence, SlipReport, assess, disagreement};
 use super::transactions::{Distance, Transaction, WheelWindow};
-use crate::adverse::{AdverseKind, AdverseMemory, SensorKind};
+use crate::adverse::{AdverseError, AdverseKind, AdverseMemory, SensorKind};
 use crate::geometry::Vec2;
 use crate::pose::{Pose, Trajectory};
 use crate::reject::{Reject, SampleCounts};
@@ -436,6 +436,21 @@ impl<const N: usize> ScalePipeline<N> {
     /// Replaces the adverse-event memory (e.g. restored from a record).
     pub fn set_memory(&mut self, memory: PipelineMemory) {
         self.memory = memory;
+    }
+
+    /// Replaces the adverse-event memory with one restored from `record`
+    /// ([`AdverseMemory::export`], e.g. by an earlier run). A record that
+    /// does not restore, or whose settings differ from
+    /// [`PipelineConfig::adverse`] ([`AdverseError::SettingsMismatch`]: its
+    /// cells would be read with another cell size or slot length), is
+    /// refused and the memory kept as it was.
+    pub fn restore_memory(&mut self, record: &[u8]) -> Result<(), AdverseError> {
+        let memory = PipelineMemory::restore(record)?;
+        if memory.params() != &self.config.adverse {
+            return Err(AdverseError::SettingsMismatch);
+        }
+        self.memory = memory;
+        Ok(())
     }
 
     /// Samples fused and rejected, by sensor. Camera: a frame with a scale is
