@@ -202,7 +202,7 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
-    options: ReplayOptions,
+    options: &ReplayOptions,
 ) -> Result<EstimatorConfig, CliError> {
     let robot = robot_description(ds, root)?;
     let mut config = EstimatorConfig::from_robot(&robot)
@@ -237,7 +237,7 @@ pub(super) fn frontend_config(
     ds: &Dataset,
     root: &Path,
     camera_mount: Extrinsics,
-    options: ReplayOptions,
+    options: &ReplayOptions,
 ) -> Result<Option<FrontEndConfig>, CliError> {
     let cam = ds.cam.as_ref();
     let (w, h) = cam

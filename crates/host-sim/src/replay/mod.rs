@@ -5,9 +5,11 @@
 //! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
 //! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
-//! the estimator, `report.rs` writes the report and the summary.
+//! the estimator, `report.rs` writes the report and the summary, `memory.rs`
+//! keeps the adverse-event memory across runs (`--memory FILE`).
 
 mod config;
+pub mod memory;
 mod report;
 mod run;
 
@@ -20,7 +22,7 @@ use crate::faults::{FailedRead, Stream};
 use crate::metrics::TrajectoryError;
 use crate::tum::TumPose;
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use traction::reorder::Event;
 use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 use traction::vslam_core::{Reject, Timestamp};
@@ -218,7 +220,7 @@ pub struct Feed {
 }
 
 /// How a replay is run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ReplayOptions {
     /// Use the segmentation maps (when the dataset has them) for the
     /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
@@ -243,6 +245,10 @@ pub struct ReplayOptions {
     /// Which length of the wheel and flow motion is compared with the
     /// camera's `|T|`; `None` for the pipeline's default.
     pub distance: Option<Distance>,
+    /// The adverse-event memory's file: restored before the first sample
+    /// when it exists, written after the last one ([`memory`]); `None`: the
+    /// run starts with an empty memory and keeps nothing.
+    pub memory: Option<PathBuf>,
 }
 
 impl Default for ReplayOptions {
@@ -256,6 +262,7 @@ impl Default for ReplayOptions {
             scale_method: None,
             compose: None,
             distance: None,
+            memory: None,
         }
     }
 }
