@@ -2,19 +2,19 @@
 //! weight is lowered there before it misleads the estimate again (seed: the
 //! semantic information extractor and the weighting-factor component).
 //!
-//! Events (slip, outlier, blank, stuck readings) are recorded per sensor by
-//! position cell (`cell_size` metres; cells are addressed by their signed
-//! integer column and row, so places far apart never share a cell: at
-//! 0.25 m the address covers +-500,000 km) and time slot. Each sensor has
-//! its own slot length ([`SlotLengths`], seed [0089]: every extractor its
-//! own time-slot server): the time within the cycle (`cycle_ns`, a day by
-//! default) divided by the sensor's slot length gives its slot, at most
-//! `SLOTS` of them, so the wheels may keep one slot for the whole day while
-//! the flow sensor and the camera, whose trouble comes with the light, keep
-//! quarters of the day. The map is sparse: only cells with events are kept, at most
-//! `CELLS` of them, in a fixed-capacity table (no heap); recording into a
-//! new cell when the table is full evicts the least recently used cell (the
-//! one whose latest event is oldest), counted in
+//! Events (slip, outlier, blank, stuck and saturated readings, collisions)
+//! are recorded per sensor by position cell (`cell_size` metres; cells are
+//! addressed by their signed integer column and row, so places far apart
+//! never share a cell: at 0.25 m the address covers +-500,000 km) and time
+//! slot. Each sensor has its own slot length ([`SlotLengths`], seed [0089]:
+//! every extractor its own time-slot server): the time within the cycle
+//! (`cycle_ns`, a day by default) divided by the sensor's slot length gives
+//! its slot, at most `SLOTS` of them, so the wheels may keep one slot for the
+//! whole day while the flow sensor and the camera, whose trouble comes with
+//! the light, keep quarters of the day. The map is sparse: only cells with
+//! events are kept, at most `CELLS` of them, in a fixed-capacity table (no
+//! heap); recording into a new cell when the table is full evicts the least
+//! recently used cell (the one whose latest event is oldest), counted in
 //! [`AdverseMemory::evicted`]. Each cell keeps a decaying event level per
 //! sensor and slot in fixed point (`1.0` event = 256); levels decay by
 //! `decay_factor` per `decay_period_ns`. A sensor's weight in a cell is
@@ -100,11 +100,16 @@ pub enum AdverseKind {
     Blank = 2,
     /// The reading did not change while the robot moved.
     Stuck = 3,
+    /// The robot ran into something (the jolt monitor's suspected obstacle):
+    /// the wheels turned against it or were pushed.
+    Collision = 4,
+    /// The reading hit the sensor's full scale (a knock, a bump).
+    Saturated = 5,
 }
 
 impl AdverseKind {
     /// How many kinds.
-    pub const COUNT: usize = 4;
+    pub const COUNT: usize = 6;
 }
 
 /// Each sensor's time-slot length, nanoseconds: a slot is

@@ -441,3 +441,44 @@ fn low_grip_lowers_the_wheel_confidence_before_slip_shows() {
         assert!((sb - D).abs() < (sa - D).abs(), "{sb} vs {sa}");
     }
 }
+
+#[test]
+fn events_from_elsewhere_are_recorded_once_per_episode_where_the_robot_is() {
+    use vslam_core::scale::pipeline::EPISODE_GAP_NS;
+    let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
+    let here = p.body_pose().translation.vector;
+    let here = vslam_core::geometry::Vec2::new(here.x, here.y);
+    assert!(here.x > 0.2, "the robot moved: {here:?}");
+    let (imu, sat) = (SensorKind::Imu, AdverseKind::Saturated);
+    let t0 = 2_000 * MS;
+    // Samples of one knock: one event.
+    for k in 0..10 {
+        let recorded = p
+            .record_event(imu, sat, Timestamp(t0 + k * 4 * MS))
+            .unwrap();
+        assert_eq!(recorded, k == 0, "sample {k}");
+    }
+    // Another kind or sensor is its own episode.
+    assert!(
+        p.record_event(SensorKind::Wheel, AdverseKind::Collision, Timestamp(t0))
+            .unwrap()
+    );
+    // A gap of EPISODE_GAP_NS after the last sample of the knock: a new one.
+    let later = t0 + 36 * MS + EPISODE_GAP_NS;
+    assert!(!p.record_event(imu, sat, Timestamp(later - 1)).unwrap());
+    assert!(
+        p.record_event(imu, sat, Timestamp(later - 1 + EPISODE_GAP_NS))
+            .unwrap()
+    );
+    assert_eq!(p.memory().tally(imu, sat), 2);
+    assert_eq!(
+        p.memory().tally(SensorKind::Wheel, AdverseKind::Collision),
+        1
+    );
+    // Recorded where the robot is: two knocks there lower the IMU's weight.
+    let t = Timestamp(later + 2 * EPISODE_GAP_NS);
+    assert!(p.memory().weight(imu, &here, t) < 1.0);
+    let elsewhere = vslam_core::geometry::Vec2::new(here.x - 1.0, here.y);
+    assert_eq!(p.memory().events(imu, &elsewhere, t), 0.0);
+}
