@@ -13,6 +13,10 @@
 //! goes on with an empty memory, which is written to FILE at the end. The
 //! record is written to `FILE.tmp` first and renamed over FILE, so an
 //! interrupted run leaves the previous record whole.
+//!
+//! The memory's clock is the log's time stamps: time slots and decay
+//! follow them. Logs whose time starts at zero (the simulator's) all fall
+//! in the same hours of the same day, so nothing decays between such runs.
 
 use crate::error::CliError;
 use serde_json::{Value, json};

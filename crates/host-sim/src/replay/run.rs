@@ -3,7 +3,7 @@
 //! it answers collected for the trajectories and the report.
 
 use super::config::{estimator_config, frontend_config, sensor_yaml};
-use super::memory;
+use super::memory as memory_file;
 use super::report::{decision_json, report_json};
 use super::{Feed, Health, Outcomes, ReplayOptions, ReplayOutput};
 use crate::asl::{Dataset, GroundTruth, ImageEntry};
@@ -373,10 +373,12 @@ pub(super) fn run(
         Estimator::new(&config, frontend)
             .map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
     );
-    let loaded = options
-        .memory
-        .as_deref()
-        .map(|path| (memory::load(&mut est, path), est.scale().memory().cells()));
+    let loaded = options.memory.as_deref().map(|path| {
+        (
+            memory_file::load(&mut est, path),
+            est.scale().memory().cells(),
+        )
+    });
 
     let items = schedule(ds, feed);
     let bar = Progress::new(progress).bar("replay", items.len() as u64, "samples");
@@ -404,8 +406,8 @@ pub(super) fn run(
     let wheel_only = wheel_only(&config.odometry, wheels, rates);
     let mut report = report_json(&missing, &c, &est);
     if let (Some(path), Some((loaded, cells))) = (options.memory.as_deref(), &loaded) {
-        memory::save(&est, path)?;
-        report["memory"] = memory::report(path, loaded, *cells, &est);
+        memory_file::save(&est, path)?;
+        report["memory"] = memory_file::report(path, loaded, *cells, &est);
     }
     if let Some(l) = &ds.labels {
         report["labels"] = l.to_json();
