@@ -7,7 +7,8 @@
 //! - IMU: validated once (non-finite, saturated), the EKF propagates, the
 //!   scale pipeline keeps it for its slip checks, and the vertical
 //!   specific-force deviation goes to the jolt monitor with the context of
-//!   the current floor;
+//!   the current floor; a saturated reading (an IMU event) and a suspected
+//!   obstacle (a wheel collision event) go to the adverse-event memory;
 //! - wheel counts (or wheel angular rates, from a robot that reports those):
 //!   `wheel-odom` turns them into a body displacement and wheel rates; the EKF fuses the rates with the floor's grip (forward gated,
 //!   lateral and vertical always), the scale pipeline accumulates `Tw`, and
@@ -30,6 +31,7 @@ use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
 use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
 use heapless::Deque;
+use vslam_core::adverse::{AdverseError, AdverseKind, SensorKind};
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, WheelTicks};
@@ -400,11 +402,35 @@ impl<'b> Estimator<'b> {
                 .flatten();
         }
         let outcome = outcome.map(|(_, step)| step);
+        self.record_imu_events(raw.t, &outcome, jolt.as_ref());
         self.counts[Stream::Imu].record(outcome.map(|_| ()));
         Processed::Imu {
             t: raw.t,
             outcome,
             jolt,
+        }
+    }
+
+    /// What an IMU sample tells the adverse-event memory: a saturated
+    /// reading is an IMU event, a suspected obstacle (a collision) a wheel
+    /// event; one episode is recorded once ([`ScalePipeline::record_event`]).
+    fn record_imu_events(
+        &mut self,
+        t: Timestamp,
+        outcome: &Result<ImuStep, Reject>,
+        jolt: Option<&JoltEvent>,
+    ) {
+        // Times are the samples' own, positions the pipeline's: a refusal
+        // (non-finite position) only skips the record.
+        if matches!(outcome, Err(Reject::Saturated)) {
+            let _ = self
+                .scale
+                .record_event(SensorKind::Imu, AdverseKind::Saturated, t);
+        }
+        if let Some(j) = jolt.filter(|j| j.kind.is_obstacle()) {
+            let _ = self
+                .scale
+                .record_event(SensorKind::Wheel, AdverseKind::Collision, j.t);
         }
     }
 
@@ -463,6 +489,22 @@ impl<'b> Estimator<'b> {
     /// The scale pipeline (camera trajectory, decisions, adverse memory).
     pub fn scale(&self) -> &ScalePipeline<TRAJECTORY_CAPACITY> {
         &self.scale
+    }
+
+    /// Replaces the scale pipeline's adverse-event memory with the one in
+    /// `record` (written by [`Estimator::export_memory`], e.g. at the end of
+    /// an earlier run); a record that is corrupt or was made with other
+    /// memory settings is refused and the memory kept
+    /// ([`ScalePipeline::restore_memory`]).
+    pub fn restore_memory(&mut self, record: &[u8]) -> Result<(), AdverseError> {
+        self.scale.restore_memory(record)
+    }
+
+    /// Writes the scale pipeline's adverse-event memory into `out` (at least
+    /// [`PipelineMemory::RECORD_LEN`](vslam_core::scale::pipeline::PipelineMemory::RECORD_LEN)
+    /// bytes) as a record; gives the bytes written.
+    pub fn export_memory(&self, out: &mut [u8]) -> Result<usize, AdverseError> {
+        self.scale.memory().export(out)
     }
 
     /// The surface model, if configured.

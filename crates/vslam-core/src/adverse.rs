@@ -2,15 +2,19 @@
 //! weight is lowered there before it misleads the estimate again (seed: the
 //! semantic information extractor and the weighting-factor component).
 //!
-//! Events (slip, outlier, blank, stuck readings) are recorded per sensor by
-//! position cell (`cell_size` metres; cells are addressed by their signed
-//! integer column and row, so places far apart never share a cell: at
-//! 0.25 m the address covers +-500,000 km) and time slot (`SLOTS` slots of
-//! `slot_ns`, cycling: with a 6 h slot and 4 slots, the slot is the quarter
-//! of the day). The map is sparse: only cells with events are kept, at most
-//! `CELLS` of them, in a fixed-capacity table (no heap); recording into a
-//! new cell when the table is full evicts the least recently used cell (the
-//! one whose latest event is oldest), counted in
+//! Events (slip, outlier, blank, stuck and saturated readings, collisions)
+//! are recorded per sensor by position cell (`cell_size` metres; cells are
+//! addressed by their signed integer column and row, so places far apart
+//! never share a cell: at 0.25 m the address covers +-500,000 km) and time
+//! slot. Each sensor has its own slot length ([`SlotLengths`], seed [0089]:
+//! every extractor its own time-slot server): the time within the cycle
+//! (`cycle_ns`, a day by default) divided by the sensor's slot length gives
+//! its slot, at most `SLOTS` of them, so the wheels may keep one slot for the
+//! whole day while the flow sensor and the camera, whose trouble comes with
+//! the light, keep quarters of the day. The map is sparse: only cells with
+//! events are kept, at most `CELLS` of them, in a fixed-capacity table (no
+//! heap); recording into a new cell when the table is full evicts the least
+//! recently used cell (the one whose latest event is oldest), counted in
 //! [`AdverseMemory::evicted`]. Each cell keeps a decaying event level per
 //! sensor and slot in fixed point (`1.0` event = 256); levels decay by
 //! `decay_factor` per `decay_period_ns`. A sensor's weight in a cell is
@@ -96,20 +100,88 @@ pub enum AdverseKind {
     Blank = 2,
     /// The reading did not change while the robot moved.
     Stuck = 3,
+    /// The robot ran into something (the jolt monitor's suspected obstacle):
+    /// the wheels turned against it or were pushed.
+    Collision = 4,
+    /// The reading hit the sensor's full scale (a knock, a bump).
+    Saturated = 5,
 }
 
 impl AdverseKind {
     /// How many kinds.
-    pub const COUNT: usize = 4;
+    pub const COUNT: usize = 6;
 }
+
+/// Each sensor's time-slot length, nanoseconds: a slot is
+/// `(t mod cycle) / length` ([`AdverseParams::cycle_ns`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotLengths {
+    /// Wheels. Default 24 h, one slot a day: a slippery floor or a cable
+    /// is the place's at any hour.
+    pub wheel: u64,
+    /// Flow sensor. Default 6 h, quarters of the day: its misreadings come
+    /// with the light on the floor (sunlit patches, dark corners).
+    pub flow: u64,
+    /// Upward camera. Default 6 h, quarters of the day: the ceiling is lit
+    /// by daylight or lamps or not at all.
+    pub camera: u64,
+    /// IMU. Default 24 h, one slot a day: bumps and thresholds are the
+    /// place's at any hour.
+    pub imu: u64,
+}
+
+impl SlotLengths {
+    /// The same length for every sensor.
+    pub const fn uniform(ns: u64) -> Self {
+        SlotLengths {
+            wheel: ns,
+            flow: ns,
+            camera: ns,
+            imu: ns,
+        }
+    }
+
+    /// The slot length of `sensor`.
+    pub const fn of(&self, sensor: SensorKind) -> u64 {
+        match sensor {
+            SensorKind::Wheel => self.wheel,
+            SensorKind::Flow => self.flow,
+            SensorKind::Camera => self.camera,
+            SensorKind::Imu => self.imu,
+        }
+    }
+
+    /// The lengths in [`SensorKind::ALL`] order.
+    pub const fn all(&self) -> [u64; SensorKind::COUNT] {
+        [self.wheel, self.flow, self.camera, self.imu]
+    }
+}
+
+impl Default for SlotLengths {
+    fn default() -> Self {
+        SlotLengths {
+            wheel: DAY_NS,
+            flow: DAY_NS / 4,
+            camera: DAY_NS / 4,
+            imu: DAY_NS,
+        }
+    }
+}
+
+/// A day, nanoseconds.
+const DAY_NS: u64 = 24 * 3600 * 1_000_000_000;
 
 /// Settings of the memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AdverseParams {
     /// Side of a position cell, metres.
     pub cell_size: f32,
-    /// Length of a time slot, nanoseconds.
-    pub slot_ns: u64,
+    /// Length of the cycle the time slots repeat in, nanoseconds (a day:
+    /// with time stamps from midnight, a slot is a time of day).
+    pub cycle_ns: u64,
+    /// Each sensor's slot length; no longer than the cycle, and the cycle
+    /// holds at most `SLOTS` of them (else [`AdverseError::BadParams`]).
+    pub slot_ns: SlotLengths,
     /// Decay period, nanoseconds.
     pub decay_period_ns: u64,
     /// Level factor per decay period, `0..1`.
@@ -122,8 +194,9 @@ impl Default for AdverseParams {
     fn default() -> Self {
         AdverseParams {
             cell_size: 0.5,
-            slot_ns: 6 * 3600 * 1_000_000_000,
-            decay_period_ns: 24 * 3600 * 1_000_000_000,
+            cycle_ns: DAY_NS,
+            slot_ns: SlotLengths::default(),
+            decay_period_ns: DAY_NS,
             decay_factor: 0.5,
             weight_per_event: 0.5,
         }
@@ -131,10 +204,18 @@ impl Default for AdverseParams {
 }
 
 impl AdverseParams {
-    fn is_valid(&self) -> bool {
+    /// Whether the settings are usable with `slots` time slots: finite and
+    /// positive, every slot length within the cycle and at most `slots`
+    /// slots in it.
+    fn is_valid(&self, slots: usize) -> bool {
+        let slots_ok = self
+            .slot_ns
+            .all()
+            .iter()
+            .all(|&l| l > 0 && l <= self.cycle_ns && self.cycle_ns.div_ceil(l) <= slots as u64);
         self.cell_size.is_finite()
             && self.cell_size > 0.0
-            && self.slot_ns > 0
+            && slots_ok
             && self.decay_period_ns > 0
             && self.decay_factor.is_finite()
             && (0.0..=1.0).contains(&self.decay_factor)
@@ -164,6 +245,9 @@ pub enum AdverseError {
     BadChecksum,
     /// The record's cells are more than the capacity, or one cell twice.
     BadCells,
+    /// The record is sound but was made with other settings (cell size,
+    /// slots, decay, weight) than the memory it should replace.
+    SettingsMismatch,
 }
 
 impl fmt::Display for AdverseError {
@@ -178,6 +262,9 @@ impl fmt::Display for AdverseError {
             AdverseError::ShapeMismatch => f.write_str("record grid shape mismatch"),
             AdverseError::BadChecksum => f.write_str("record checksum mismatch"),
             AdverseError::BadCells => f.write_str("record cells over capacity or repeated"),
+            AdverseError::SettingsMismatch => {
+                f.write_str("record made with other memory settings than the configured ones")
+            }
         }
     }
 }
@@ -186,9 +273,10 @@ impl core::error::Error for AdverseError {}
 
 /// Magic bytes at the start of a record.
 pub const MAGIC: [u8; 4] = *b"TRAM";
-/// The record version this code writes and reads (2: the sparse map).
-pub const VERSION: u8 = 2;
-const HEADER_LEN: usize = 4 + 4 + 8 + 28 + 8 + 8;
+/// The record version this code writes and reads (3: the sparse map with
+/// per-sensor slot lengths).
+pub const VERSION: u8 = 3;
+const HEADER_LEN: usize = 4 + 4 + 8 + 60 + 8 + 8;
 const TALLY_LEN: usize = SensorKind::COUNT * AdverseKind::COUNT * 4;
 const ONE_EVENT: f32 = 256.0;
 
@@ -226,7 +314,7 @@ pub struct CellSlot {
     pub ix: i32,
     /// Row (y): `floor(y / cell_size)`, saturated to `i32`.
     pub iy: i32,
-    /// Time slot, `0..SLOTS`.
+    /// Time slot of the sensor, `0..SLOTS`.
     pub slot: usize,
 }
 
@@ -236,7 +324,7 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
 
     /// An empty memory.
     pub fn new(params: AdverseParams) -> Result<Self, AdverseError> {
-        if !params.is_valid() || CELLS == 0 || SLOTS == 0 || CELLS > u16::MAX as usize {
+        if !params.is_valid(SLOTS) || CELLS == 0 || SLOTS == 0 || CELLS > u16::MAX as usize {
             return Err(AdverseError::BadParams);
         }
         Ok(AdverseMemory {
@@ -263,15 +351,25 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
         self.evicted
     }
 
-    /// The cell and slot of a position (metres, world) and time.
-    pub fn cell_slot(&self, p: &Vec2, t: Timestamp) -> Result<CellSlot, AdverseError> {
+    /// The cell of a position (metres, world) and the slot of `sensor` at time `t`.
+    pub fn cell_slot(
+        &self,
+        sensor: SensorKind,
+        p: &Vec2,
+        t: Timestamp,
+    ) -> Result<CellSlot, AdverseError> {
         if !(p.x.is_finite() && p.y.is_finite()) {
             return Err(AdverseError::NonFinitePosition);
         }
         // Saturating float-to-int casts: no wrap onto other cells.
         let ix = libm::floorf(p.x / self.params.cell_size) as i32;
         let iy = libm::floorf(p.y / self.params.cell_size) as i32;
-        let slot = ((t.0 / self.params.slot_ns) % SLOTS as u64) as usize;
+        // Both divisors are positive (checked in `new`); the slot is below
+        // SLOTS by the same check, and `get` refuses it otherwise.
+        let within = t.0.checked_rem(self.params.cycle_ns).unwrap_or(0);
+        let slot = within
+            .checked_div(self.params.slot_ns.of(sensor))
+            .unwrap_or(0) as usize;
         Ok(CellSlot { ix, iy, slot })
     }
 
@@ -348,7 +446,7 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
         p: &Vec2,
         t: Timestamp,
     ) -> Result<(), AdverseError> {
-        let cs = self.cell_slot(p, t)?;
+        let cs = self.cell_slot(sensor, p, t)?;
         self.decay_to(t);
         if let Some(cell) = self.find_or_make(cs, t) {
             cell.last = cell.last.max(t);
@@ -372,7 +470,7 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
 
     /// Decayed event count of `sensor` at `p` and `t`.
     pub fn events(&self, sensor: SensorKind, p: &Vec2, t: Timestamp) -> f32 {
-        let Ok(cs) = self.cell_slot(p, t) else {
+        let Ok(cs) = self.cell_slot(sensor, p, t) else {
             return 0.0;
         };
         let level = self
@@ -422,7 +520,10 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
         w.put(&(self.cells.len() as u16).to_le_bytes());
         w.put(&0u16.to_le_bytes());
         w.put(&self.params.cell_size.to_le_bytes());
-        w.put(&self.params.slot_ns.to_le_bytes());
+        w.put(&self.params.cycle_ns.to_le_bytes());
+        for l in self.params.slot_ns.all() {
+            w.put(&l.to_le_bytes());
+        }
         w.put(&self.params.decay_period_ns.to_le_bytes());
         w.put(&self.params.decay_factor.to_le_bytes());
         w.put(&self.params.weight_per_event.to_le_bytes());
@@ -479,9 +580,22 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
         if crc32fast::hash(body) != u32::from_le_bytes(crc_bytes) {
             return Err(AdverseError::BadChecksum);
         }
+        let cell_size = r.f32().ok_or(AdverseError::TooShort)?;
+        let cycle_ns = r.u64().ok_or(AdverseError::TooShort)?;
+        let mut lengths = [0u64; SensorKind::COUNT];
+        for l in lengths.iter_mut() {
+            *l = r.u64().ok_or(AdverseError::TooShort)?;
+        }
+        let [wheel, flow, camera, imu] = lengths;
         let params = AdverseParams {
-            cell_size: r.f32().ok_or(AdverseError::TooShort)?,
-            slot_ns: r.u64().ok_or(AdverseError::TooShort)?,
+            cell_size,
+            cycle_ns,
+            slot_ns: SlotLengths {
+                wheel,
+                flow,
+                camera,
+                imu,
+            },
             decay_period_ns: r.u64().ok_or(AdverseError::TooShort)?,
             decay_factor: r.f32().ok_or(AdverseError::TooShort)?,
             weight_per_event: r.f32().ok_or(AdverseError::TooShort)?,

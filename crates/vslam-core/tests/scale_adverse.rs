@@ -4,7 +4,9 @@
 //! byte record round-trips with typed errors for corrupt data.
 
 use vslam_core::Timestamp;
-use vslam_core::adverse::{AdverseError, AdverseKind, AdverseMemory, AdverseParams, SensorKind};
+use vslam_core::adverse::{
+    AdverseError, AdverseKind, AdverseMemory, AdverseParams, SensorKind, SlotLengths,
+};
 use vslam_core::geometry::Vec2;
 
 type M = AdverseMemory<16, 4>;
@@ -13,10 +15,19 @@ const HOUR: u64 = 3600 * 1_000_000_000;
 fn params() -> AdverseParams {
     AdverseParams {
         cell_size: 0.5,
-        slot_ns: 6 * HOUR,
+        cycle_ns: 24 * HOUR,
+        slot_ns: SlotLengths::uniform(6 * HOUR),
         decay_period_ns: 24 * HOUR,
         decay_factor: 0.5,
         weight_per_event: 0.5,
+    }
+}
+
+/// [`params`] with one day-long slot for every sensor.
+fn one_slot() -> AdverseParams {
+    AdverseParams {
+        slot_ns: SlotLengths::uniform(24 * HOUR),
+        ..params()
     }
 }
 
@@ -119,7 +130,7 @@ fn record_round_trips_and_corruption_is_typed() {
     let n = m.export(&mut buf).unwrap();
     assert_eq!(n, M::RECORD_LEN);
     assert_eq!(&buf[..4], b"TRAM");
-    assert_eq!(buf[4], 2, "version");
+    assert_eq!(buf[4], 3, "version");
     let back = M::restore(&buf[..n]).unwrap();
     assert_eq!(back, m);
 
@@ -166,7 +177,7 @@ fn a_30_m_home_at_quarter_metre_cells_never_aliases() {
     type Big = AdverseMemory<14_400, 1>;
     let params = AdverseParams {
         cell_size: 0.25,
-        ..params()
+        ..one_slot()
     };
     let mut m = Box::new(Big::new(params).unwrap());
     for (k, p) in home_cells().enumerate() {
@@ -197,7 +208,7 @@ fn a_30_m_home_at_quarter_metre_cells_never_aliases() {
 #[test]
 fn a_full_map_evicts_the_least_recently_used_cell() {
     type Small = AdverseMemory<3, 1>;
-    let mut m = Small::new(params()).unwrap();
+    let mut m = Small::new(one_slot()).unwrap();
     let (a, b, c, d) = (
         Vec2::new(0.1, 0.1),
         Vec2::new(5.1, 0.1),
@@ -242,8 +253,88 @@ fn bad_settings_are_refused() {
     };
     assert_eq!(M::new(bad), Err(AdverseError::BadParams));
     let bad = AdverseParams {
-        slot_ns: 0,
+        slot_ns: SlotLengths {
+            camera: 0,
+            ..SlotLengths::uniform(6 * HOUR)
+        },
         ..params()
     };
     assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+    // A slot longer than the cycle, or more slots in the cycle than the memory has.
+    let bad = AdverseParams {
+        slot_ns: SlotLengths {
+            imu: 25 * HOUR,
+            ..SlotLengths::uniform(6 * HOUR)
+        },
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+    let bad = AdverseParams {
+        slot_ns: SlotLengths {
+            flow: 5 * HOUR,
+            ..SlotLengths::uniform(6 * HOUR)
+        },
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+    assert_eq!(
+        AdverseMemory::<16, 2>::new(params()),
+        Err(AdverseError::BadParams),
+        "four 6 h slots in a day, room for two"
+    );
+    let bad = AdverseParams {
+        cycle_ns: 0,
+        ..params()
+    };
+    assert_eq!(M::new(bad), Err(AdverseError::BadParams));
+}
+
+#[test]
+fn each_sensor_has_its_own_slot_length() {
+    // The defaults: wheels and IMU one slot a day, flow and camera quarters.
+    let d = SlotLengths::default();
+    assert_eq!((d.wheel, d.imu), (24 * HOUR, 24 * HOUR));
+    assert_eq!((d.flow, d.camera), (6 * HOUR, 6 * HOUR));
+    let params = AdverseParams {
+        decay_factor: 1.0,
+        ..AdverseParams::default()
+    };
+    assert_eq!(params.slot_ns, d);
+    let mut m = M::new(params).unwrap();
+    let p = Vec2::new(2.1, -0.4);
+    let morning = Timestamp(HOUR);
+    for k in 0..3 {
+        for s in SensorKind::ALL {
+            m.record(s, AdverseKind::Outlier, &p, Timestamp(HOUR + k))
+                .unwrap();
+        }
+    }
+    let at = |m: &M, s, hours: u64| m.weight(s, &p, Timestamp(hours * HOUR));
+    let low = m.weight(SensorKind::Wheel, &p, morning);
+    assert!(low < 1.0, "{low}");
+    for s in SensorKind::ALL {
+        assert_eq!(at(&m, s, 1), low, "{s:?} in the slot of its events");
+    }
+    // Evening: the wheels' and the IMU's day-long slot still holds the
+    // events; the flow sensor's and the camera's evening slot does not.
+    for s in [SensorKind::Wheel, SensorKind::Imu] {
+        assert_eq!(at(&m, s, 19), low, "{s:?}");
+        assert_eq!(
+            m.cell_slot(s, &p, Timestamp(19 * HOUR)).unwrap().slot,
+            0,
+            "{s:?}"
+        );
+    }
+    for s in [SensorKind::Flow, SensorKind::Camera] {
+        assert_eq!(at(&m, s, 19), 1.0, "{s:?}");
+        assert_eq!(m.cell_slot(s, &p, Timestamp(19 * HOUR)).unwrap().slot, 3);
+        // The next morning is the same slot again (the cycle is a day).
+        assert_eq!(at(&m, s, 25), low, "{s:?}");
+    }
+    // The lengths travel with the record.
+    let mut buf = vec![0u8; M::RECORD_LEN];
+    m.export(&mut buf).unwrap();
+    let back = M::restore(&buf).unwrap();
+    assert_eq!(back.params().slot_ns, d);
+    assert_eq!(back, m);
 }

@@ -277,6 +277,38 @@ fn spinning_in_place_is_slip_and_the_memory_learns_the_place() {
 }
 
 #[test]
+fn a_restored_memory_must_be_sound_and_made_with_the_same_settings() {
+    use vslam_core::adverse::{AdverseError, AdverseParams};
+    use vslam_core::scale::pipeline::PipelineMemory;
+    let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
+    drive(&mut p, 1_000, 5, 0.3, 1.0, 0.0, false);
+    let mut buf = vec![0u8; PipelineMemory::RECORD_LEN];
+    p.memory().export(&mut buf).unwrap();
+    assert!(p.memory().cells() > 0);
+
+    let mut q: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    let empty = q.memory().clone();
+    // Corrupt: refused, the memory kept as it was.
+    let mut bad = buf.clone();
+    bad[60] ^= 0x10;
+    assert_eq!(q.restore_memory(&bad), Err(AdverseError::BadChecksum));
+    assert_eq!(q.memory(), &empty);
+    // Sound, but made with another cell size than this pipeline's.
+    let mut other = config(SelectionMethod::Fusion);
+    other.adverse = AdverseParams {
+        cell_size: 0.25,
+        ..other.adverse
+    };
+    let mut r: ScalePipeline = ScalePipeline::new(other).unwrap();
+    assert_eq!(r.restore_memory(&buf), Err(AdverseError::SettingsMismatch));
+    assert_eq!(r.memory().cells(), 0);
+    // Sound and with the same settings: restored.
+    assert_eq!(q.restore_memory(&buf), Ok(()));
+    assert_eq!(q.memory(), p.memory());
+}
+
+#[test]
 fn slip_episode_switches_to_flow_and_back_in_the_pipeline() {
     let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::SlipThreshold)).unwrap();
     let calm = drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
@@ -408,4 +440,45 @@ fn low_grip_lowers_the_wheel_confidence_before_slip_shows() {
         let (sa, sb) = (a.scale.unwrap().scale, b.scale.unwrap().scale);
         assert!((sb - D).abs() < (sa - D).abs(), "{sb} vs {sa}");
     }
+}
+
+#[test]
+fn events_from_elsewhere_are_recorded_once_per_episode_where_the_robot_is() {
+    use vslam_core::scale::pipeline::EPISODE_GAP_NS;
+    let mut p: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    drive(&mut p, 0, 10, 0.3, 1.0, 1.0, true);
+    let here = p.body_pose().translation.vector;
+    let here = vslam_core::geometry::Vec2::new(here.x, here.y);
+    assert!(here.x > 0.2, "the robot moved: {here:?}");
+    let (imu, sat) = (SensorKind::Imu, AdverseKind::Saturated);
+    let t0 = 2_000 * MS;
+    // Samples of one knock: one event.
+    for k in 0..10 {
+        let recorded = p
+            .record_event(imu, sat, Timestamp(t0 + k * 4 * MS))
+            .unwrap();
+        assert_eq!(recorded, k == 0, "sample {k}");
+    }
+    // Another kind or sensor is its own episode.
+    assert!(
+        p.record_event(SensorKind::Wheel, AdverseKind::Collision, Timestamp(t0))
+            .unwrap()
+    );
+    // A gap of EPISODE_GAP_NS after the last sample of the knock: a new one.
+    let later = t0 + 36 * MS + EPISODE_GAP_NS;
+    assert!(!p.record_event(imu, sat, Timestamp(later - 1)).unwrap());
+    assert!(
+        p.record_event(imu, sat, Timestamp(later - 1 + EPISODE_GAP_NS))
+            .unwrap()
+    );
+    assert_eq!(p.memory().tally(imu, sat), 2);
+    assert_eq!(
+        p.memory().tally(SensorKind::Wheel, AdverseKind::Collision),
+        1
+    );
+    // Recorded where the robot is: two knocks there lower the IMU's weight.
+    let t = Timestamp(later + 2 * EPISODE_GAP_NS);
+    assert!(p.memory().weight(imu, &here, t) < 1.0);
+    let elsewhere = vslam_core::geometry::Vec2::new(here.x - 1.0, here.y);
+    assert_eq!(p.memory().events(imu, &elsewhere, t), 0.0);
 }

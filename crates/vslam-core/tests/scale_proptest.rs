@@ -208,7 +208,7 @@ proptest! {
         flip in any::<usize>(),
         xs in proptest::collection::vec((wild(), wild(), any::<u64>()), 0..20),
     ) {
-        type M = AdverseMemory<4, 2>;
+        type M = AdverseMemory<4, 4>;
         let _ = M::restore(&bytes);
         let mut m = M::new(AdverseParams::default()).unwrap();
         for (x, y, t) in &xs {

@@ -132,7 +132,7 @@ impl From<DistanceArg> for Distance {
 }
 
 /// The scale pipeline's settings shared by `simulate` and `replay`.
-#[derive(Debug, Clone, Copy, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct ScaleArgs {
     /// How each camera frame pair's metric scale is chosen from the wheels
     /// and the flow sensor (report.json `frames[].method`); default fusion.
@@ -146,6 +146,12 @@ pub struct ScaleArgs {
     /// compared with the camera's |T|: the path or the chord (default).
     #[arg(long, value_enum, value_name = "LENGTH")]
     pub distance: Option<DistanceArg>,
+    /// The adverse-event memory (where and when each sensor misbehaved)
+    /// across runs: restored from FILE at the start when it exists, written
+    /// to FILE at the end. A corrupt FILE is refused (stderr), moved to
+    /// FILE.refused, and the run starts with an empty memory.
+    #[arg(long, value_name = "FILE")]
+    pub memory: Option<PathBuf>,
 }
 
 impl ScaleArgs {
@@ -155,6 +161,7 @@ impl ScaleArgs {
             scale_method: self.scale_method.map(Into::into),
             compose: self.compose.map(Into::into),
             distance: self.distance.map(Into::into),
+            memory: self.memory,
             ..base
         }
     }
@@ -261,6 +268,11 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
         if a.scenario != "office" && a.scenario != "shuttle" {
             return Err(CliError::Usage(
                 "--chaos drives the shuttle scenario; leave --scenario out".into(),
+            ));
+        }
+        if a.scale.memory.is_some() {
+            return Err(CliError::Usage(
+                "--chaos runs without an adverse-event memory; leave --memory out".into(),
             ));
         }
         if !(a.chaos_rate.is_finite() && a.chaos_rate > 0.0) {

@@ -218,7 +218,7 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
-    options: ReplayOptions,
+    options: &ReplayOptions,
 ) -> Result<EstimatorConfig, CliError> {
     let robot = robot_description_with(ds, root, options.wheels)?;
     let mut config = EstimatorConfig::from_robot(&robot)
@@ -253,7 +253,7 @@ pub(super) fn frontend_config(
     ds: &Dataset,
     root: &Path,
     camera_mount: Extrinsics,
-    options: ReplayOptions,
+    options: &ReplayOptions,
 ) -> Result<Option<FrontEndConfig>, CliError> {
     let cam = ds.cam.as_ref();
     let (w, h) = cam

@@ -5,10 +5,12 @@
 //! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
 //! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
-//! the estimator, `report.rs` writes the report and the summary.
+//! the estimator, `report.rs` writes the report and the summary, `memory.rs`
+//! keeps the adverse-event memory across runs (`--memory FILE`).
 
 mod aids;
 mod config;
+pub mod memory;
 mod report;
 mod run;
 
@@ -21,7 +23,7 @@ use crate::faults::{FailedRead, Stream};
 use crate::metrics::TrajectoryError;
 use crate::tum::TumPose;
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use traction::reorder::Event;
 use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 use traction::vslam_core::{Reject, Timestamp};
@@ -222,7 +224,7 @@ pub struct Feed {
 }
 
 /// How a replay is run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ReplayOptions {
     /// Use the segmentation maps (when the dataset has them) for the
     /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
@@ -251,6 +253,10 @@ pub struct ReplayOptions {
     /// --wheels FILE`, e.g. from `host-sim calibrate`); `None` keeps the
     /// dataset's.
     pub wheels: Option<crate::calibrate::WheelGeometry>,
+    /// The adverse-event memory's file: restored before the first sample
+    /// when it exists, written after the last one ([`memory`]); `None`: the
+    /// run starts with an empty memory and keeps nothing.
+    pub memory: Option<PathBuf>,
 }
 
 impl Default for ReplayOptions {
@@ -265,6 +271,7 @@ impl Default for ReplayOptions {
             compose: None,
             distance: None,
             wheels: None,
+            memory: None,
         }
     }
 }

@@ -59,6 +59,7 @@ pub(super) fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
         "wheel_m": d.wheel.metres, "wheel_confidence": d.wheel.confidence,
         "flow_m": d.flow.metres, "flow_confidence": d.flow.confidence,
         "slip": d.slip.amount, "slip_exceeded": d.slip.exceeded, "slip_cause": format!("{:?}", d.slip.cause),
+        "wheel_weight": d.wheel_weight, "flow_weight": d.flow_weight,
         "wheel_outlier": d.wheel_outlier,
         "scale": scale, "source": source, "no_scale": why,
         "applied_scale": d.applied_scale,
@@ -323,4 +324,5 @@ pub fn summary_table(r: &ReplayOutput) -> String {
         + &reasons_summary(&r.report)
         + &start_summary(r)
         + &events_summary(&r.report)
+        + &super::memory::summary(&r.report)
 }

@@ -3,6 +3,7 @@
 //! it answers collected for the trajectories and the report.
 
 use super::config::{estimator_config, frontend_config, sensor_yaml};
+use super::memory as memory_file;
 use super::report::{decision_json, report_json};
 use super::{Feed, Health, Outcomes, ReplayOptions, ReplayOutput};
 use crate::asl::{Dataset, GroundTruth, ImageEntry};
@@ -367,14 +368,20 @@ pub(super) fn run(
     // report's `missing_sensors` says so. Without an IMU the EKF never starts
     // (and no ekf.tum is written); without wheels the EKF runs on IMU and flow.
     let missing = ds.missing();
-    let config = estimator_config(ds, root, options)?;
-    let fe_config = frontend_config(ds, root, config.scale.camera, options)?;
+    let config = estimator_config(ds, root, &options)?;
+    let fe_config = frontend_config(ds, root, config.scale.camera, &options)?;
     let mut memory = FrontEndMemory::new(fe_config.as_ref());
     let frontend = memory.frontend(fe_config, root)?;
     let mut est = Box::new(
         Estimator::new(&config, frontend)
             .map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
     );
+    let loaded = options.memory.as_deref().map(|path| {
+        (
+            memory_file::load(&mut est, path),
+            est.scale().memory().cells(),
+        )
+    });
 
     let items = schedule(ds, feed);
     let bar = Progress::new(progress).bar("replay", items.len() as u64, "samples");
@@ -401,6 +408,10 @@ pub(super) fn run(
         .unwrap_or(&[]);
     let wheel_only = wheel_only(&config.odometry, wheels, rates);
     let mut report = report_json(&missing, &c, &est);
+    if let (Some(path), Some((loaded, cells))) = (options.memory.as_deref(), &loaded) {
+        memory_file::save(&est, path)?;
+        report["memory"] = memory_file::report(path, loaded, *cells, &est);
+    }
     if let Some(l) = &ds.labels {
         report["labels"] = l.to_json();
     }

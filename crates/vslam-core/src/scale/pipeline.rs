@@ -16,7 +16,8 @@
 //! the adverse-event memory ([`crate::adverse`]) at the current position and
 //! time, and the pipeline fills that memory with the events it sees: wheel
 //! slip and outliers, wheels stuck while the robot moves, blank or stuck flow,
-//! a camera with zero confidence.
+//! a camera with zero confidence; the caller adds what it sees elsewhere
+//! ([`ScalePipeline::record_event`]: collisions, saturated IMU readings).
 
 use super::camera::CameraMotion;
 use super::confidence::{camera_confidence, wheel_confidence};
@@ -32,7 +33,7 @@ use super::robust::{RobustEstimate, RobustScale};
 use super::select::{NoScale, SelectionInput, SelectionMethod, select};
 use super::slip::{SlipEvidence, SlipReport, assess, disagreement};
 use super::transactions::{Distance, Transaction, WheelWindow};
-use crate::adverse::{AdverseKind, AdverseMemory, SensorKind};
+use crate::adverse::{AdverseError, AdverseKind, AdverseMemory, SensorKind};
 use crate::geometry::Vec2;
 use crate::pose::{Pose, Trajectory};
 use crate::reject::{Reject, SampleCounts};
@@ -82,7 +83,14 @@ pub struct ScalePipeline<const N: usize = 32> {
     camera_counts: SampleCounts,
     last_camera: Option<Timestamp>,
     wheel_grip: f32,
+    last_event: [[Option<Timestamp>; AdverseKind::COUNT]; SensorKind::COUNT],
 }
+
+/// Events given to [`ScalePipeline::record_event`] of one sensor and kind
+/// closer than this to the previous one are one episode, recorded once
+/// (nanoseconds): the saturated samples of one knock, at 250 Hz, are one
+/// event, not dozens.
+pub const EPISODE_GAP_NS: u64 = 1_000_000_000;
 
 impl<const N: usize> ScalePipeline<N> {
     /// A pipeline at the configured initial pose, after [`PipelineConfig::validate`].
@@ -98,6 +106,7 @@ impl<const N: usize> ScalePipeline<N> {
             camera_counts: SampleCounts::new(),
             last_camera: None,
             wheel_grip: 1.0,
+            last_event: [[None; AdverseKind::COUNT]; SensorKind::COUNT],
             config,
         })
     }
@@ -433,9 +442,57 @@ impl<const N: usize> ScalePipeline<N> {
         &self.memory
     }
 
+    /// Records an adverse event seen outside the frame decisions (a
+    /// collision from the jolt monitor, a saturated IMU reading) at time `t`
+    /// and the current body position (that of the latest camera frame).
+    /// Events of one sensor and kind less than [`EPISODE_GAP_NS`] after the
+    /// previous one continue its episode and are not recorded again; gives
+    /// whether this one was recorded.
+    pub fn record_event(
+        &mut self,
+        sensor: SensorKind,
+        kind: AdverseKind,
+        t: Timestamp,
+    ) -> Result<bool, AdverseError> {
+        let Some(last) = self
+            .last_event
+            .get_mut(sensor as usize)
+            .and_then(|r| r.get_mut(kind as usize))
+        else {
+            return Ok(false);
+        };
+        let new_episode = match *last {
+            Some(prev) => t.nanos_since(prev).is_none_or(|ns| ns >= EPISODE_GAP_NS),
+            None => true,
+        };
+        *last = Some(t);
+        if !new_episode {
+            return Ok(false);
+        }
+        let p = self.trajectory.body_pose().translation.vector;
+        self.memory
+            .record(sensor, kind, &Vec2::new(p.x, p.y), t)
+            .map(|()| true)
+    }
+
     /// Replaces the adverse-event memory (e.g. restored from a record).
     pub fn set_memory(&mut self, memory: PipelineMemory) {
         self.memory = memory;
+    }
+
+    /// Replaces the adverse-event memory with one restored from `record`
+    /// ([`AdverseMemory::export`], e.g. by an earlier run). A record that
+    /// does not restore, or whose settings differ from
+    /// [`PipelineConfig::adverse`] ([`AdverseError::SettingsMismatch`]: its
+    /// cells would be read with another cell size or slot length), is
+    /// refused and the memory kept as it was.
+    pub fn restore_memory(&mut self, record: &[u8]) -> Result<(), AdverseError> {
+        let memory = PipelineMemory::restore(record)?;
+        if memory.params() != &self.config.adverse {
+            return Err(AdverseError::SettingsMismatch);
+        }
+        self.memory = memory;
+        Ok(())
     }
 
     /// Samples fused and rejected, by sensor. Camera: a frame with a scale is
