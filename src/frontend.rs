@@ -62,6 +62,14 @@ pub const REDETECT_BELOW: usize = 100;
 /// saturated, uniform or blurred frame then costs one frame pair, not two.
 pub const MAX_BRIDGED_FRAMES: u8 = 2;
 
+/// The tracker's step limit at the coarse pyramid levels in
+/// [`FrontEndConfig::new`], level pixels ([`LkConfig::coarse_epsilon`]; the
+/// level-0 limit stays OpenCV's 0.01): a coarse level only seeds the next
+/// finer one. On the firmware's 160x120 frames it cuts the tracker's
+/// Cortex-M4 instructions by about a third (`firmware/README.md`) with the
+/// level-0 iterations nearly unchanged.
+pub const COARSE_EPSILON: f32 = 0.1;
+
 /// Settings of the camera path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrontEndConfig {
@@ -128,7 +136,7 @@ impl FrontEndConfig {
     /// Defaults for a `width x height` upward camera: OpenCV's tracker and
     /// corner settings ([`LkConfig::default`], [`CornerConfig::default`]),
     /// with the window of [`window_for_frame`] (and a corner border that
-    /// fits it).
+    /// fits it) and [`COARSE_EPSILON`] at the coarse levels.
     pub fn new(
         width: usize,
         height: usize,
@@ -143,6 +151,7 @@ impl FrontEndConfig {
             levels: 3,
             lk: LkConfig {
                 window: window_for_frame(width, height),
+                coarse_epsilon: Some(COARSE_EPSILON),
                 ..LkConfig::default()
             },
             corners: CornerConfig {
