@@ -35,7 +35,7 @@
 //! here allocates.
 
 use heapless::Vec as HVec;
-use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
+use vslam_core::corners::{Corner, CornerConfig, border_for_window, detect_corners, scratch_len};
 use vslam_core::decompose::{
     DecomposeError, HomographyDecomposition, NormalPrior, PinholeIntrinsics, PlaneMotion,
     SelectParams, decompose,
@@ -61,6 +61,14 @@ pub const REDETECT_BELOW: usize = 100;
 /// motion to the reference) bridged by keeping the reference frame: a black,
 /// saturated, uniform or blurred frame then costs one frame pair, not two.
 pub const MAX_BRIDGED_FRAMES: u8 = 2;
+
+/// The tracker's step limit at the coarse pyramid levels in
+/// [`FrontEndConfig::new`], level pixels ([`LkConfig::coarse_epsilon`]; the
+/// level-0 limit stays OpenCV's 0.01): a coarse level only seeds the next
+/// finer one. On the firmware's 160x120 frames it cuts the tracker's
+/// Cortex-M4 instructions by about a third (`firmware/README.md`) with the
+/// level-0 iterations nearly unchanged.
+pub const COARSE_EPSILON: f32 = 0.1;
 
 /// Settings of the camera path.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,8 +107,36 @@ pub struct FrontEndConfig {
     pub rotation_only_baseline: f32,
 }
 
+/// The tracker window of [`FrontEndConfig::new`] for a `width x height`
+/// frame: the default 21x21 ([`LkConfig::default`], OpenCV's) at 320x240
+/// and above, scaled with the frame below, so that the window covers the
+/// same part of the ceiling (11x11 at 160x120, whose pixels are 2x2 of
+/// 320x240's), odd, at least 7. The tracker's work per point grows with the
+/// window's area: at 160x120 a 21x21 window costs about 2.6 times the
+/// instructions of an 11x11 one on a Cortex-M4 (`firmware/README.md`).
+pub const fn window_for_frame(width: usize, height: usize) -> usize {
+    const FULL: usize = 21;
+    // The side that limits the scale, in 320x240 units: min(w / 320, h / 240).
+    let scaled = if width.saturating_mul(3) < height.saturating_mul(4) {
+        FULL.saturating_mul(width) / 320
+    } else {
+        FULL.saturating_mul(height) / 240
+    };
+    let odd = scaled | 1;
+    if odd < 7 {
+        7
+    } else if odd > FULL {
+        FULL
+    } else {
+        odd
+    }
+}
+
 impl FrontEndConfig {
-    /// Defaults for a `width x height` upward camera.
+    /// Defaults for a `width x height` upward camera: OpenCV's tracker and
+    /// corner settings ([`LkConfig::default`], [`CornerConfig::default`]),
+    /// with the window of [`window_for_frame`] (and a corner border that
+    /// fits it) and [`COARSE_EPSILON`] at the coarse levels.
     pub fn new(
         width: usize,
         height: usize,
@@ -113,8 +149,15 @@ impl FrontEndConfig {
             intrinsics,
             mount,
             levels: 3,
-            lk: LkConfig::default(),
-            corners: CornerConfig::default(),
+            lk: LkConfig {
+                window: window_for_frame(width, height),
+                coarse_epsilon: Some(COARSE_EPSILON),
+                ..LkConfig::default()
+            },
+            corners: CornerConfig {
+                border: border_for_window(window_for_frame(width, height)),
+                ..CornerConfig::default()
+            },
             ransac: RansacParams::default(),
             prior_max_angle_rad: 0.35,
             min_tracks: 12,
@@ -595,4 +638,25 @@ pub fn fit_pairs<const N: usize>(
         None => None,
     };
     Ok((report, decomposition))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::window_for_frame;
+
+    #[test]
+    fn the_window_scales_with_the_frame_below_320x240() {
+        assert_eq!(window_for_frame(320, 240), 21);
+        assert_eq!(window_for_frame(640, 480), 21);
+        assert_eq!(window_for_frame(160, 120), 11);
+        // The narrower side decides: 160 wide is half of 320 whatever the height.
+        assert_eq!(window_for_frame(160, 240), 11);
+        assert_eq!(window_for_frame(320, 120), 11);
+        assert_eq!(window_for_frame(80, 60), 7);
+        assert_eq!(window_for_frame(0, 0), 7);
+        for (w, h) in [(100, 75), (200, 150), (240, 180), (1, 1), (usize::MAX, 3)] {
+            let n = window_for_frame(w, h);
+            assert!(n % 2 == 1 && (7..=21).contains(&n), "{w}x{h}: {n}");
+        }
+    }
 }

@@ -189,7 +189,7 @@ fn sum<const B: usize>(values: &[f32]) -> f32 {
 /// The smaller eigenvalue of `[xx xy; xy yy]`, at least 0.
 pub(super) fn min_eigenvalue(xx: f32, xy: f32, yy: f32) -> f32 {
     let half_diff = 0.5 * (xx - yy);
-    let lambda = 0.5 * (xx + yy) - libm::sqrtf(half_diff * half_diff + xy * xy);
+    let lambda = 0.5 * (xx + yy) - crate::fsqrt::sqrtf(half_diff * half_diff + xy * xy);
     lambda.max(0.0)
 }
 

@@ -116,7 +116,7 @@ impl Template {
         };
         let area = (n * n) as f32;
         let half_diff = 0.5 * (gxx - gyy);
-        let lambda_min = 0.5 * (gxx + gyy) - libm::sqrtf(half_diff * half_diff + gxy * gxy);
+        let lambda_min = 0.5 * (gxx + gyy) - crate::fsqrt::sqrtf(half_diff * half_diff + gxy * gxy);
         let det = gxx * gyy - gxy * gxy;
         let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
         if !well_conditioned {
