@@ -243,6 +243,10 @@ pub struct ReplayOptions {
     /// Which length of the wheel and flow motion is compared with the
     /// camera's `|T|`; `None` for the pipeline's default.
     pub distance: Option<Distance>,
+    /// Pass the scale pipeline's slip and wheel-outlier verdicts to the EKF's
+    /// wheel noise ([`EstimatorConfig::wheel_distrust`](traction::estimator::EstimatorConfig::wheel_distrust));
+    /// `false` cuts the link, for comparison.
+    pub wheel_distrust: bool,
 }
 
 impl Default for ReplayOptions {
@@ -256,6 +260,7 @@ impl Default for ReplayOptions {
             scale_method: None,
             compose: None,
             distance: None,
+            wheel_distrust: true,
         }
     }
 }
