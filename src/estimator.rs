@@ -18,7 +18,10 @@
 //!
 //! Camera frames ([`Estimator::process_camera`]): the front end's frame
 //! pair motion goes to the scale pipeline, and with the pair's scale (if
-//! any) to the EKF as a relative-pose measurement. Camera frames and segmentation maps
+//! any) to the EKF as a relative-pose measurement; the pair's slip and
+//! wheel-outlier verdicts inflate the EKF's wheel noise (by default: refuse
+//! the wheels' forward rows) over the next frame interval
+//! ([`wheel_distrust`]). Camera frames and segmentation maps
 //! ([`Estimator::process_segmentation`]) are borrowed views, processed at
 //! once after every buffered sample up to their time. Every sample ends in
 //! exactly one count of its stream (fused, or rejected with a reason), so a
@@ -60,6 +63,26 @@ pub struct EstimatorConfig {
     pub jolts: JoltConfig,
     /// How long the ordering buffer waits for late samples, nanoseconds.
     pub reorder_window_ns: u64,
+    /// The factor by which the EKF's wheel noise (standard deviation) is
+    /// inflated over the frame interval after a camera frame pair in which
+    /// the scale pipeline found the wheels slipping or an outlier
+    /// ([`wheel_distrust`]); infinite refuses the forward and differential
+    /// rows instead; `None` cuts the link.
+    pub wheel_distrust: Option<f32>,
+}
+
+/// How long and how much the EKF distrusts the wheels after a frame pair's
+/// `decision` (see `ego_ekf::wheel::distrust`): when the pair's slip
+/// exceeded the threshold or its wheel data were an outlier, the wheel
+/// samples up to one frame interval after the pair's second frame (until
+/// the next pair's verdict), with the noise's standard deviation times
+/// `factor`; `None` when the wheels were trusted.
+pub fn wheel_distrust(decision: &FrameDecision, factor: f32) -> Option<(Timestamp, f32)> {
+    if !(decision.slip.exceeded || decision.wheel_outlier) {
+        return None;
+    }
+    let interval = decision.t1.nanos_since(decision.t0).unwrap_or(0);
+    Some((Timestamp(decision.t1.0.saturating_add(interval)), factor))
 }
 
 /// Why the estimator could not be built.
@@ -184,6 +207,7 @@ pub struct Estimator<'b> {
     surface: Option<SurfaceModel>,
     jolts: JoltMonitor<JOLT_LOG>,
     frontend: Option<FrontEnd<'b>>,
+    wheel_distrust: Option<f32>,
     reorder: Reorder<REORDER_CAPACITY>,
     pending: Deque<Processed, 4>,
     counts: StreamCounts,
@@ -204,6 +228,7 @@ impl<'b> Estimator<'b> {
             surface: config.surface.map(SurfaceModel::new),
             jolts: JoltMonitor::new(config.jolts),
             frontend,
+            wheel_distrust: config.wheel_distrust,
             reorder: Reorder::new(config.reorder_window_ns),
             pending: Deque::new(),
             counts: StreamCounts::zero(),
@@ -309,6 +334,15 @@ impl<'b> Estimator<'b> {
         // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
         // frame pair is counted once here, by the camera path.
         let _ = self.ekf.fuse_camera(&motion, filter_scale(&decision));
+        // The scale pipeline's slip and wheel-outlier verdicts set the EKF's
+        // wheel noise over the next interval (a factor the filter refuses
+        // changes nothing).
+        if let Some((until, factor)) = self
+            .wheel_distrust
+            .and_then(|f| wheel_distrust(&decision, f))
+        {
+            let _ = self.ekf.distrust_wheels_until(until, factor);
+        }
         Ok(Some(decision))
     }
 

@@ -21,10 +21,12 @@ use crate::propagate::{
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Refutation, Verdict};
 use crate::state::{CLONE, Covariance, ErrorState, NominalState, P, Quat, TH, V, Vec3};
 use crate::update::{Measurement, UpdateReport, gated_update};
+use crate::wheel::distrust::WheelDistrust;
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
 
 mod camera;
+mod distrust;
 mod read;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
@@ -127,6 +129,8 @@ pub struct EgoEkf {
     recovery: RecoveryCounts,
     /// The flow's standing verdict against the wheels' forward speed.
     refutation: Refutation,
+    /// The scale pipeline's standing verdict against the wheels.
+    distrust: WheelDistrust,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
     /// What the pose clone holds and who reads it (see [`CloneUse`]).
@@ -222,6 +226,7 @@ impl EgoEkf {
             ),
             recovery: RecoveryCounts::default(),
             refutation: Refutation::default(),
+            distrust: WheelDistrust::default(),
             gaps: GapCounts::default(),
             gap_odometry: GapOdometry::new(),
             clone: CloneUse::Still,
@@ -275,6 +280,7 @@ impl EgoEkf {
         self.clone = CloneUse::Still;
         self.last_imu = None;
         self.refutation.clear();
+        self.distrust.clear();
         self.imu_clock.reset();
         // Anchor the IMU clock at the start time; cannot fail after a reset.
         let _ = self.imu_clock.accept(t);
@@ -505,6 +511,9 @@ impl EgoEkf {
                 witness,
             )
         };
+        let noise_factor = self.distrust.factor_at(rates.t());
+        // An infinite factor refuses the forward rows, as the flow's refutation does.
+        let refuted = refuted || noise_factor.is_infinite();
         let mut out = self.wheel.fuse(
             &mut self.x,
             &mut self.p,
@@ -514,7 +523,15 @@ impl EgoEkf {
             now,
             &self.config.recovery,
             refuted,
+            noise_factor,
         );
+        if self.distrust.holds_at(rates.t()) {
+            self.distrust.record(match &out {
+                Ok(inn) if inn.gated => Err(Reject::Gated),
+                Ok(_) => Ok(()),
+                Err(r) => Err(*r),
+            });
+        }
         if let Ok(inn) = out.as_mut()
             && inn.gated
             && self.wheel.watch().run().due(&self.config.wheel)

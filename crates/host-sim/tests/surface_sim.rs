@@ -210,17 +210,15 @@ fn carpet_to_tile_strip_is_announced_from_the_labels() {
     );
 }
 
-/// Issue 4's last failing case, slip scenario seed 3: the robot is stuck from
-/// 48 s to 51 s (wheels turning, body still) on its way back from the tile;
-/// the simulated IMU sees the stop and the restart twice over, so the filter's
-/// forward speed came out of the stuck episode at twice the true 0.3 m/s with
-/// every wheel update gated and the noisy flow passing its gate with a tiny
-/// gain. The tile -> carpet strip announced in that state got an arrival half
-/// a second early, and both of its wheel-edge jolts (54.53 s, 54.79 s) were
-/// judged against carpet with no crossing near: suspected obstacles. Now the
-/// filter re-examines its velocity after a run of gated wheel updates, finds
-/// the flow (which the wheels confirm) against it and resets to the flow: the
-/// strip is explained and the cable on the wood remains the only obstacle.
+/// Slip scenario seed 3: the robot is stuck from 48 s to 51 s (wheels
+/// turning, body still) on its way back from the tile, then crosses the tile
+/// -> carpet strip at about 54.6 s. The strip must be announced with the
+/// right arrival and both of its wheel-edge jolts (54.53 s, 54.79 s)
+/// explained, not judged suspected obstacles: that needs the filter's forward
+/// speed right after the stuck episode, with the wheels gated while they
+/// spin. Should a run of gated wheel updates make the filter re-examine its
+/// velocity (`ego_ekf::recovery`), it may reset to the flow, never to the
+/// slipping wheels.
 #[test]
 fn the_return_strip_after_the_stuck_episode_is_explained() {
     let root = tmp("slip3");
@@ -243,12 +241,8 @@ fn the_return_strip_after_the_stuck_episode_is_explained() {
         near.iter().all(|(_, k, _)| k != "SuspectedObstacle"),
         "{near:?}"
     );
-    // The recovery happened, from the flow, never to the slipping wheels.
+    // Never a reset to the slipping wheels.
     let lockout = &out.report["final"]["wheel_lockout"];
-    assert!(
-        lockout["resets_to_flow"].as_u64().unwrap() >= 1,
-        "{lockout}"
-    );
     assert_eq!(lockout["resets_to_wheels"].as_u64(), Some(0), "{lockout}");
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -175,7 +175,7 @@ impl FlowFusion {
         if !z.iter().all(|v| v.is_finite()) {
             return Err(Reject::NonFinite);
         }
-        let std = flow_std(sample, config, z.norm());
+        let std = flow_std(sample, config, z.norm(), dt);
         let plausible = z.norm() <= config.reset_max_speed;
         if plausible {
             self.window.push(sample.t, z, std);

@@ -119,7 +119,10 @@ impl WheelFusion {
     /// module documentation. A gated sample extends the gated run (with the
     /// `recovery` configuration's steadiness and onset rules). `refuted`:
     /// the flow stands against the wheels' forward speed, which is gated
-    /// whatever its test ([`crate::recovery::Refutation`]).
+    /// whatever its test ([`crate::recovery::Refutation`]). `noise_factor`
+    /// (at least 1) multiplies the forward and differential noise's standard
+    /// deviation: the scale pipeline's distrust of the wheels
+    /// ([`crate::wheel::distrust`]); 1 leaves the grip's noise.
     #[allow(clippy::too_many_arguments)]
     pub fn fuse(
         &mut self,
@@ -131,7 +134,18 @@ impl WheelFusion {
         now: Timestamp,
         recovery: &RecoveryConfig,
         refuted: bool,
+        noise_factor: f32,
     ) -> Result<WheelInnovation, Reject> {
+        // A factor the grip refuses (not finite, not positive) leaves the grip's noise.
+        let inflated = GripParams::new(
+            grip.grip(),
+            grip.forward_std() * noise_factor,
+            grip.lateral_std(),
+            grip.forward_gate(),
+            grip.jolt_threshold(),
+        )
+        .unwrap_or(*grip);
+        let grip = &inflated;
         let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {

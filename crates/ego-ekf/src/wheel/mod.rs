@@ -1,6 +1,7 @@
 //! Wheel odometry: *when to fuse* in [`fusion`], *the maths* in [`model`]
 //! (the measurement) and [`update`] (gate and fast update).
 
+pub mod distrust;
 pub mod fusion;
 pub mod model;
 pub mod update;

@@ -214,7 +214,8 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
 /// IMU step for the IMU's rate ([`imu_rate_hz`],
 /// [`FilterConfig::with_imu_rate`](traction::ego_ekf::FilterConfig::with_imu_rate)),
 /// the surface model from `seg0`, and the scale pipeline's selection method,
-/// composition and distance as `options` say.
+/// composition and distance and the scale pipeline's distrust of the wheels
+/// passed to the EKF as `options` say.
 pub(super) fn estimator_config(
     ds: &Dataset,
     root: &Path,
@@ -235,6 +236,9 @@ pub(super) fn estimator_config(
         )?),
         _ => None,
     };
+    if !options.wheel_distrust {
+        config.wheel_distrust = None;
+    }
     if let Some(m) = options.scale_method {
         config.scale.method = m;
     }

@@ -257,6 +257,10 @@ pub struct ReplayOptions {
     /// when it exists, written after the last one ([`memory`]); `None`: the
     /// run starts with an empty memory and keeps nothing.
     pub memory: Option<PathBuf>,
+    /// Pass the scale pipeline's slip and wheel-outlier verdicts to the EKF's
+    /// wheel noise ([`EstimatorConfig::wheel_distrust`](traction::estimator::EstimatorConfig::wheel_distrust));
+    /// `false` cuts the link, for comparison.
+    pub wheel_distrust: bool,
 }
 
 impl Default for ReplayOptions {
@@ -272,6 +276,7 @@ impl Default for ReplayOptions {
             distance: None,
             wheels: None,
             memory: None,
+            wheel_distrust: true,
         }
     }
 }

@@ -53,6 +53,7 @@ pub(super) fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
     };
     json!({
         "t": t.0,
+        "t0": d.t0.0,
         "method": format!("{:?}", d.method),
         "baseline": d.baseline,
         "camera_confidence": d.camera_confidence,
@@ -79,6 +80,7 @@ fn final_json(est: &Estimator<'_>) -> Value {
             "kept_gating_no_trusted_source": ekf.recovery().no_trusted_source,
         },
         "imu_gaps_bridged": ekf.gaps().bridged,
+        "wheel_distrusted": counts_json(ekf.wheel_distrust_counts()),
         "wheel_radius_std": ekf.wheel_radius_std(),
         "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
         "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],
