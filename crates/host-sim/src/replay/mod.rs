@@ -5,10 +5,11 @@
 //! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
 //! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
-//! the estimator, `report.rs` writes the report and the summary.
+//! the estimator, `flow_power.rs` the flow sensor's power in it, `report.rs` writes the report and the summary.
 
 mod aids;
 mod config;
+pub mod flow_power;
 mod report;
 mod run;
 
@@ -251,6 +252,10 @@ pub struct ReplayOptions {
     /// --wheels FILE`, e.g. from `host-sim calibrate`); `None` keeps the
     /// dataset's.
     pub wheels: Option<crate::calibrate::WheelGeometry>,
+    /// The flow sensor on demand ([`traction::flow_demand`]): flow reports
+    /// reach the estimator only while the policy has the sensor on and its
+    /// power-up has had time to run; `None` keeps it always on.
+    pub flow_demand: Option<traction::flow_demand::FlowDemandConfig>,
 }
 
 impl Default for ReplayOptions {
@@ -265,6 +270,7 @@ impl Default for ReplayOptions {
             compose: None,
             distance: None,
             wheels: None,
+            flow_demand: None,
         }
     }
 }
