@@ -95,11 +95,12 @@ impl FlowDemandConfig {
             return Err(FlowDemandConfigError::LowGrip);
         }
         let nonneg = |v: f32| v.is_finite() && v >= 0.0;
-        if !nonneg(self.lookahead_s)
-            || !nonneg(self.remembered_events)
-            || !nonneg(self.quiet_s)
-            || !(self.innovation_sigmas.is_finite() && self.innovation_sigmas > 0.0)
-        {
+        let valid = nonneg(self.lookahead_s)
+            && nonneg(self.remembered_events)
+            && nonneg(self.quiet_s)
+            && self.innovation_sigmas.is_finite()
+            && self.innovation_sigmas > 0.0;
+        if !valid {
             return Err(FlowDemandConfigError::Threshold);
         }
         Ok(())
