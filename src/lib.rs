@@ -77,6 +77,7 @@ pub use wheel_odom;
 pub mod config;
 pub mod estimate;
 pub mod estimator;
+pub mod flow_demand;
 pub mod frontend;
 pub mod reorder;
 

@@ -26,6 +26,16 @@
 //! 6. read back [`Variant::readback_checks`], else [`Error::ConfigMismatch`];
 //! 7. read 0x02..=0x06 once more so the first report starts from zero.
 //!
+//! # Shutdown and wake ([`FlowSensor::shutdown`], [`FlowSensor::wake`])
+//!
+//! Shutdown is one write, Shutdown (0x3B) <- 0xB6: the chip stops imaging
+//! (datasheet: about 12 uA instead of the run mode's < 9 mA) and answers no
+//! register but Power_Up_Reset. While shut down the driver refuses motion
+//! reads with [`Error::Shutdown`] without touching the bus. Waking is the
+//! whole power-up above (the datasheet's exit from shutdown is the power-up
+//! reset and the configuration again), so a wake costs what `init` costs,
+//! its configuration waits included.
+//!
 //! # Raw frame ([`FlowSensor::capture_frame`], Pimoroni `frame_capture`)
 //!
 //! [`crate::config::FRAME_CAPTURE_SETUP`], write 0x58 <- 0xFF, poll 0x59 until
@@ -63,6 +73,8 @@ pub enum Mode {
     Motion,
     /// Left in raw-data (frame grab) mode by a capture.
     RawFrame,
+    /// In the chip's shutdown (low-power) state; [`FlowSensor::wake`] leaves it.
+    Shutdown,
 }
 
 /// A PMW3901MB or PAA5100JE on an SPI device, with a delay provider.
@@ -134,6 +146,31 @@ impl<SPI: SpiDevice, D: DelayNs> FlowSensor<SPI, D> {
         Ok(())
     }
 
+    /// Puts the chip into its shutdown (low-power) state: one write of
+    /// Shutdown (0x3B) <- 0xB6. Motion reads then answer [`Error::Shutdown`]
+    /// until [`FlowSensor::wake`]. A chip already shut down is not written to
+    /// again (it would not listen).
+    pub fn shutdown(&mut self) -> Result<(), Error<SPI::Error>> {
+        if self.mode == Mode::Shutdown {
+            return Ok(());
+        }
+        self.write_register(SHUTDOWN, SHUTDOWN_VALUE)?;
+        self.mode = Mode::Shutdown;
+        Ok(())
+    }
+
+    /// Wakes the chip from shutdown (or from any mode): the whole power-up
+    /// of [`FlowSensor::init`], since shutdown loses the configuration.
+    /// On error the mode is [`Mode::Uninitialised`].
+    pub fn wake(&mut self) -> Result<(), Error<SPI::Error>> {
+        self.init()
+    }
+
+    /// Whether the chip is shut down.
+    pub fn is_shut_down(&self) -> bool {
+        self.mode == Mode::Shutdown
+    }
+
     /// Product_ID and Inverse_Product_ID.
     pub fn read_product_id(&mut self) -> Result<(u8, u8), Error<SPI::Error>> {
         let id = self.read_register(PRODUCT_ID)?;
@@ -148,8 +185,10 @@ impl<SPI: SpiDevice, D: DelayNs> FlowSensor<SPI, D> {
 
     /// Reads the Motion_Burst and decodes it (no software rotation applied).
     pub fn read_motion_burst(&mut self) -> Result<MotionBurst, Error<SPI::Error>> {
-        if self.mode != Mode::Motion {
-            return Err(Error::NotInMotionMode);
+        match self.mode {
+            Mode::Motion => {}
+            Mode::Shutdown => return Err(Error::Shutdown),
+            Mode::Uninitialised | Mode::RawFrame => return Err(Error::NotInMotionMode),
         }
         let mut buf = [0u8; MOTION_BURST_LEN];
         self.spi.transaction(&mut [
@@ -196,6 +235,9 @@ impl<SPI: SpiDevice, D: DelayNs> FlowSensor<SPI, D> {
         &mut self,
         frame: &mut [u8; FLOW_FRAME_LEN],
     ) -> Result<(), Error<SPI::Error>> {
+        if self.mode == Mode::Shutdown {
+            return Err(Error::Shutdown);
+        }
         self.run_table(config::FRAME_CAPTURE_SETUP)?;
         self.mode = Mode::RawFrame;
         self.write_register(RAW_DATA_GRAB, RAW_DATA_GRAB_ARM)?;

@@ -34,6 +34,8 @@ pub enum Error<E> {
     /// Motion was requested but the sensor is not in motion mode (not
     /// initialised yet, or left in raw-frame mode by a capture): call `init`.
     NotInMotionMode,
+    /// Motion was requested while the chip is shut down: call `wake`.
+    Shutdown,
 }
 
 impl<E> From<E> for Error<E> {
@@ -66,6 +68,7 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
                 write!(f, "raw frame stream stalled after {pixels} pixels")
             }
             Error::NotInMotionMode => f.write_str("sensor not in motion mode; call init"),
+            Error::Shutdown => f.write_str("sensor shut down; call wake"),
         }
     }
 }

@@ -45,7 +45,10 @@ pub const OBSERVATION: u8 = 0x15;
 pub const MOTION_BURST: u8 = 0x16;
 /// Power_Up_Reset: write [`POWER_UP_RESET_VALUE`] to reset the chip.
 pub const POWER_UP_RESET: u8 = 0x3A;
-/// Shutdown.
+/// Shutdown: write [`SHUTDOWN_VALUE`] to enter the shutdown (low-power)
+/// state. The chip then ignores the bus except for [`POWER_UP_RESET`], and
+/// leaving it is the power-up sequence again (reset, motion reads, the
+/// configuration table): shutdown loses the configuration.
 pub const SHUTDOWN: u8 = 0x3B;
 /// Resolution (PAA5100JE; written by its configuration table).
 pub const RESOLUTION: u8 = 0x4E;
@@ -66,6 +69,9 @@ pub const PRODUCT_ID_VALUE: u8 = 0x49;
 pub const INVERSE_PRODUCT_ID_VALUE: u8 = 0xB6;
 /// The value written to [`POWER_UP_RESET`].
 pub const POWER_UP_RESET_VALUE: u8 = 0x5A;
+/// The value written to [`SHUTDOWN`] to enter shutdown (PMW3901MB datasheet,
+/// shutdown section; the same value the PixArt ADNS/PMW33xx parts take).
+pub const SHUTDOWN_VALUE: u8 = 0xB6;
 
 /// SPI address byte: bit 7 set means write.
 pub const WRITE_FLAG: u8 = 0x80;

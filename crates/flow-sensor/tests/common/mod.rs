@@ -69,6 +69,10 @@ impl Script {
     pub fn reset_and_id(self) -> Self {
         self.w(0x3A, 0x5A).r(0x00, 0x49).r(0x5F, 0xB6)
     }
+    /// Appends what `f` expects (a shared sequence such as a power-up).
+    pub fn then(self, f: impl FnOnce(Self) -> Self) -> Self {
+        f(self)
+    }
     pub fn mock(self) -> Mock<u8> {
         Mock::new(&self.0)
     }

@@ -6,7 +6,10 @@
 //! Reading `Motion` (0x02) latches the accumulated deltas into
 //! `Delta_X/Y_L/H`; `Motion_Burst` (0x16) latches and streams the 12 burst
 //! bytes. A write of 0x5A to `Power_Up_Reset` (0x3A) restores the defaults.
-//! `0x7F` selects the register bank used by the configuration tables. The raw
+//! A write of 0xB6 to `Shutdown` (0x3B) shuts the chip down: it images
+//! nothing (motion added meanwhile is lost), reads answer 0x00 (MISO is
+//! high-impedance) and only a power-up reset is heard, which wakes it with
+//! the defaults. `0x7F` selects the register bank used by the configuration tables. The raw
 //! frame grab: a write to `RawData_Grab` (0x58) starts it, `RawData_Grab_Status`
 //! (0x59) bits 7:6 say it is ready, then each read of 0x58 returns, per pixel,
 //! a byte `01dddddd` with the upper six bits and a byte `10xxLLxx` with the lower two.
@@ -31,6 +34,8 @@ const SHUTTER_UPPER: u8 = 0x0C;
 const OBSERVATION: u8 = 0x15;
 const MOTION_BURST: u8 = 0x16;
 const POWER_UP_RESET: u8 = 0x3A;
+const SHUTDOWN: u8 = 0x3B;
+const SHUTDOWN_VALUE: u8 = 0xB6;
 const RAWDATA_GRAB: u8 = 0x58;
 const RAWDATA_GRAB_STATUS: u8 = 0x59;
 const INVERSE_PRODUCT_ID: u8 = 0x5F;
@@ -59,6 +64,7 @@ pub struct FlowChipSim {
     grab_index: usize,
     grab_upper_next: bool,
     fault: Option<FlowChipFault>,
+    shut_down: bool,
     transactions: u64,
 }
 
@@ -81,6 +87,7 @@ impl FlowChipSim {
             grab_index: 0,
             grab_upper_next: true,
             fault: None,
+            shut_down: false,
             transactions: 0,
         };
         s.reset();
@@ -89,6 +96,7 @@ impl FlowChipSim {
 
     fn reset(&mut self) {
         self.regs.clear();
+        self.shut_down = false;
         self.bank = 0;
         self.acc = [0; 2];
         self.regs.insert((0, PRODUCT_ID), 0x49);
@@ -97,8 +105,12 @@ impl FlowChipSim {
         self.regs.insert((0, OBSERVATION), 0xBF);
     }
 
-    /// Adds motion the sensor saw (counts along its own x and y).
+    /// Adds motion the sensor saw (counts along its own x and y); a chip
+    /// that is shut down sees none.
     pub fn add_motion(&mut self, dx: i64, dy: i64) {
+        if self.shut_down {
+            return;
+        }
         self.acc[0] += dx;
         self.acc[1] += dy;
     }
@@ -122,6 +134,11 @@ impl FlowChipSim {
     /// The value last written to register `addr` of bank 0, if any (for tests of the init tables).
     pub fn register(&self, bank: u8, addr: u8) -> Option<u8> {
         self.regs.get(&(bank, addr)).copied()
+    }
+
+    /// Whether the chip is shut down (Shutdown <- 0xB6 since the last reset).
+    pub fn is_shut_down(&self) -> bool {
+        self.shut_down
     }
 
     /// Transactions seen so far.
@@ -213,6 +230,10 @@ impl FlowChipSim {
                     self.fault = None;
                 }
             }
+            SHUTDOWN if value == SHUTDOWN_VALUE => {
+                self.shut_down = true;
+                self.acc = [0; 2];
+            }
             BANK_SELECT => self.bank = value,
             RAWDATA_GRAB if self.bank == 0 => {
                 self.grab_index = 0;
@@ -243,7 +264,8 @@ impl SpiDevice for FlowChipSim {
             }
             _ => {}
         }
-        let brownout = self.fault == Some(FlowChipFault::Brownout);
+        // A browned-out or shut-down chip only hears the reset.
+        let brownout = self.fault == Some(FlowChipFault::Brownout) || self.shut_down;
         let mut addr = 0u8;
         let mut is_write = false;
         let mut burst = false;
@@ -252,7 +274,7 @@ impl SpiDevice for FlowChipSim {
             if i == 0 {
                 addr = mosi & 0x7F;
                 is_write = mosi & 0x80 != 0;
-                burst = !is_write && addr == MOTION_BURST && self.bank == 0;
+                burst = !is_write && !self.shut_down && addr == MOTION_BURST && self.bank == 0;
                 if burst {
                     self.latch();
                 }
@@ -264,7 +286,6 @@ impl SpiDevice for FlowChipSim {
             if is_write {
                 if i == 1 {
                     if brownout {
-                        // A browned-out chip only hears the reset.
                         if addr == POWER_UP_RESET {
                             self.write(addr, mosi);
                         }
@@ -351,6 +372,68 @@ mod tests {
         assert_eq!(read(&mut c, 0x00), 0x00);
         write(&mut c, 0x3A, 0x5A);
         assert_eq!(read(&mut c, 0x00), 0x49);
+    }
+
+    #[test]
+    fn shutdown_hears_only_the_reset_and_sees_no_motion() {
+        let mut c = FlowChipSim::new();
+        write(&mut c, 0x7F, 0x07);
+        write(&mut c, 0x40, 0x41);
+        write(&mut c, 0x7F, 0x00);
+        write(&mut c, 0x3B, 0xB6);
+        assert!(c.is_shut_down());
+        c.add_motion(500, 500);
+        c.set_quality(0x40, 0x0100);
+        assert_eq!(read(&mut c, 0x00), 0x00);
+        let mut burst = [0xAAu8; 12];
+        c.transaction(&mut [Operation::Write(&[0x16]), Operation::Read(&mut burst)])
+            .unwrap();
+        assert_eq!(burst, [0; 12]);
+        // Writes other than the reset are not heard.
+        write(&mut c, 0x7F, 0x05);
+        write(&mut c, 0x3B, 0x00);
+        assert!(c.is_shut_down());
+        write(&mut c, 0x3A, 0x5A);
+        assert!(!c.is_shut_down());
+        assert_eq!(read(&mut c, 0x00), 0x49);
+        assert_eq!(c.register(7, 0x40), None, "the reset restored the defaults");
+        // Motion from before the wake is gone; motion after it is seen.
+        assert_eq!(read(&mut c, 0x02) & 0x80, 0);
+        c.add_motion(3, 0);
+        assert_eq!(read(&mut c, 0x02) & 0x80, 0x80);
+        assert_eq!(read(&mut c, 0x03), 3);
+    }
+
+    #[test]
+    fn the_driver_shuts_the_chip_down_and_wakes_it() {
+        use crate::chips::{NoDelay, Shared};
+        use traction::flow_sensor::{Error, FlowSensor, Variant};
+        use traction::vslam_core::Timestamp;
+        let chip = Shared::new(FlowChipSim::new());
+        let handle = chip.handle();
+        let mut s = FlowSensor::new(chip, NoDelay, Variant::Paa5100je);
+        s.init().unwrap();
+        handle.0.borrow_mut().set_quality(0x40, 0x0100);
+        handle.0.borrow_mut().add_motion(7, -2);
+        let before = s.read_sample(Timestamp(1)).unwrap();
+        assert_eq!((before.dx, before.dy), (7, -2));
+        s.shutdown().unwrap();
+        assert!(handle.0.borrow().is_shut_down());
+        handle.0.borrow_mut().add_motion(100, 100);
+        assert_eq!(s.read_sample(Timestamp(2)), Err(Error::Shutdown));
+        s.wake().unwrap();
+        assert!(!handle.0.borrow().is_shut_down());
+        // The configuration table ran again (its last PAA5100 write in bank 0).
+        assert_eq!(handle.0.borrow().register(0, 0x73), Some(0x00));
+        let woken = s.read_sample(Timestamp(3)).unwrap();
+        assert!(
+            !woken.motion,
+            "no motion reported from while it was shut down"
+        );
+        assert_eq!((woken.dx, woken.dy), (0, 0));
+        handle.0.borrow_mut().add_motion(-4, 9);
+        let after = s.read_sample(Timestamp(4)).unwrap();
+        assert_eq!((after.dx, after.dy), (-4, 9));
     }
 
     #[test]

@@ -152,6 +152,21 @@ pub struct ScaleArgs {
     /// FILE.refused, and the run starts with an empty memory.
     #[arg(long, value_name = "FILE")]
     pub memory: Option<PathBuf>,
+    /// The flow sensor's power: `always` on (default) or `on-demand`, woken
+    /// when slip is detected or predicted and released after a quiet period
+    /// (`traction::flow_demand`, default settings); report.json `flow_power`
+    /// says how long it was on.
+    #[arg(long, value_enum, value_name = "MODE", default_value = "always")]
+    pub flow: FlowArg,
+}
+
+/// The flow sensor's power, by its command-line name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FlowArg {
+    /// Always on.
+    Always,
+    /// On when slip is detected or predicted.
+    OnDemand,
 }
 
 impl ScaleArgs {
@@ -162,6 +177,10 @@ impl ScaleArgs {
             compose: self.compose.map(Into::into),
             distance: self.distance.map(Into::into),
             memory: self.memory,
+            flow_demand: match self.flow {
+                FlowArg::Always => None,
+                FlowArg::OnDemand => Some(traction::flow_demand::FlowDemandConfig::default()),
+            },
             ..base
         }
     }

@@ -5,11 +5,12 @@
 //! `trajectory.svg`, `errors.svg`, `report.html` ([`crate::plot`]). All
 //! estimation happens in the no_std crates; this module only reads, feeds, collects and writes: `config.rs` builds the
 //! configuration from the dataset's metadata, `run.rs` is the loop through
-//! the estimator, `report.rs` writes the report and the summary, `memory.rs`
-//! keeps the adverse-event memory across runs (`--memory FILE`).
+//! the estimator, `flow_power.rs` the flow sensor's power in it, `report.rs` writes the report and
+//! the summary, `memory.rs` keeps the adverse-event memory across runs (`--memory FILE`).
 
 mod aids;
 mod config;
+pub mod flow_power;
 pub mod memory;
 mod report;
 mod run;
@@ -261,6 +262,10 @@ pub struct ReplayOptions {
     /// wheel noise ([`EstimatorConfig::wheel_distrust`](traction::estimator::EstimatorConfig::wheel_distrust));
     /// `false` cuts the link, for comparison.
     pub wheel_distrust: bool,
+    /// The flow sensor on demand ([`traction::flow_demand`]): flow reports
+    /// reach the estimator only while the policy has the sensor on and its
+    /// power-up has had time to run; `None` keeps it always on.
+    pub flow_demand: Option<traction::flow_demand::FlowDemandConfig>,
 }
 
 impl Default for ReplayOptions {
@@ -277,6 +282,7 @@ impl Default for ReplayOptions {
             wheels: None,
             memory: None,
             wheel_distrust: true,
+            flow_demand: None,
         }
     }
 }

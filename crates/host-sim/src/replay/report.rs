@@ -121,6 +121,7 @@ pub(super) fn report_json(missing: &[&'static str], c: &Collected, est: &Estimat
         "surface_timeline": c.surfaces,
         "events": jolts,
         "aids": c.aids.to_json(),
+        "flow_power": c.flow_power.to_json(),
         "final": final_json(est),
     })
 }

@@ -209,6 +209,8 @@ pub(super) struct Collected {
     last_counts: StreamCounts,
     /// Innovation and NIS statistics per aid.
     pub aids: super::aids::AidStats,
+    /// The flow sensor's power (always on, or on demand).
+    pub flow_power: super::flow_power::FlowPower,
 }
 
 impl Collected {
@@ -216,6 +218,7 @@ impl Collected {
     fn handle(&mut self, p: Processed, est: &Estimator<'_>) {
         self.log(processed_outcome(&p));
         self.aids.observe(est.ekf());
+        self.flow_power.observe(est, &p);
         if self.check_health && matches!(p, Processed::Imu { .. }) {
             self.health.check(est.ekf(), p.t());
             let now = est.counts();
@@ -339,6 +342,7 @@ impl Collected {
         next: &Next,
     ) -> Result<(), CliError> {
         match next {
+            Next::Sample(Event::Flow(s)) if !self.flow_power.pass(s.t) => {}
             Next::Sample(e) => {
                 est.offer(*e);
                 self.drain(est);
@@ -387,6 +391,8 @@ pub(super) fn run(
     let bar = Progress::new(progress).bar("replay", items.len() as u64, "samples");
     let mut c = Collected {
         check_health: feed.is_some(),
+        flow_power: super::flow_power::FlowPower::new(options.flow_demand)
+            .map_err(|e| CliError::file(root, format!("configuration: {e}")))?,
         ..Collected::default()
     };
     for (i, (t, _, next)) in items.iter().enumerate() {
