@@ -24,6 +24,7 @@ fn estimator() -> Estimator<'static> {
         surface: None,
         jolts: JoltConfig::default(),
         reorder_window_ns: 20_000_000,
+        wheel_distrust: None,
     };
     Estimator::new(&config, None).unwrap()
 }
