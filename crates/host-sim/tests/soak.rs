@@ -31,26 +31,25 @@
 //! vslam-core and host-sim are optimised there too) runs the hour as well:
 //! `cargo test -p host-sim --test soak -- --ignored --nocapture`.
 //!
-//! # Result (x86_64, test profile, measured 2026-11-22)
+//! # Result (x86_64, test profile, measured 2026-12-03 at 860592b)
 //!
-//! Figures of the code of that date; the command above measures the current
-//! code.
+//! Figures of the code of that commit (`.ci/run` on a fresh clone); the
+//! command above measures the current code.
 //!
-//! 900,000 IMU steps (3600 s, 57 laps) in 11.4 s wall; 3600 checks passed.
-//! Resident set 12,932 KiB after 2 laps, 12,948 KiB at the end; estimator
-//! 42,576 bytes. IMU 899,950 fused (50 during initialisation); wheel 180,000
-//! seen, 165,990 fused, 14,000 gated, 10 not ready; flow 359,943 seen, 354,526
-//! fused, 5,397 gated, 20 not ready; 971 zero-velocity updates. Worst standard
-//! deviations: velocity 0.033 m/s, tilt 0.0046 rad, accel bias 0.045 m/s^2,
-//! gyro bias 0.0012 rad/s, wheel radius 0.0010 m (the prior), contact 0.003 m;
-//! position 0.44 m (0.15 / 0.18 / 0.31 m after the hour: the vertical is
-//! unobservable without a camera), yaw 0.054 rad (0.037 after the hour).
-//! Wheel radii 0.03351..0.03639 m, final 0.03455 / 0.03355 m (true 0.0357 /
-//! 0.03465: both 3 % low, the simulated floors' mean slip absorbed into the
-//! rolling radius; their ratio is right to 0.2 %). Biases at most
-//! 0.0058 rad/s and 0.117 m/s^2. The full covariance failed Cholesky in 4 of
-//! 3600 checks (the pose-clone note in `check`); without the clone it never
-//! did.
+//! 900,000 IMU steps (3600 s, 57 laps) in 11.4 s wall; 3600 checks passed,
+//! the full covariance (pose clone included) positive definite in all.
+//! Resident set 13,116 KiB after 2 laps, 13,132 KiB at the end; estimator
+//! 48,568 bytes. IMU 899,950 fused (50 during initialisation); wheel 180,000
+//! seen, 167,390 fused, 12,600 gated, 10 not ready; flow 359,943 seen, 359,888
+//! fused, 35 gated, 20 not ready; 965 zero-velocity updates; floor 33,478
+//! updates, 33,024 fused, 454 gated, 2,520 suspended. Worst standard
+//! deviations: velocity 0.020 m/s, tilt 0.0046 rad, yaw 0.063 rad, accel bias
+//! 0.045 m/s^2, gyro bias 0.0012 rad/s, wheel radius 0.0010 m (the prior),
+//! contact 0.003 m, position 0.49 m (0.14 / 0.18 / 0.0019 m after the hour).
+//! Worst height 0.022 m. Wheel radii 0.03352..0.03554 m, final 0.03456 /
+//! 0.03356 m (true 0.0357 / 0.03465: both 3 % low, the simulated floors' mean
+//! slip absorbed into the rolling radius; their ratio is right to 0.2 %).
+//! Biases at most 0.0059 rad/s and 0.117 m/s^2.
 
 use host_sim::sim::motion::{Robot, TRUTH_STEP_NS, TruthStep, integrate};
 use host_sim::sim::script::Script;
