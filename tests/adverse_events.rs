@@ -3,31 +3,18 @@
 //! wheel collision event, and one episode (the samples of one knock) is
 //! recorded once.
 
-use traction::ego_ekf::FilterConfig;
-use traction::ego_ekf::events::{JoltConfig, JoltKind};
-use traction::estimator::{Estimator, EstimatorConfig, Processed};
+use traction::ego_ekf::events::JoltKind;
+use traction::estimator::{Estimator, Processed};
 use traction::vslam_core::Timestamp;
 use traction::vslam_core::adverse::{AdverseKind, SensorKind};
-use traction::vslam_core::scale::PipelineConfig;
 use traction::vslam_core::sensors::RawImuSample;
-use traction::wheel_odom::odometry::DiffDriveParams;
+
+mod common;
+use common::estimator;
 
 const MS: u64 = 1_000_000;
 /// 250 Hz.
 const STEP: u64 = 4 * MS;
-
-fn estimator() -> Estimator<'static> {
-    let config = EstimatorConfig {
-        filter: FilterConfig::default(),
-        odometry: DiffDriveParams::new(4096, 0.035, 0.035, 0.23, 3.0, 500_000_000).unwrap(),
-        scale: PipelineConfig::default(),
-        surface: None,
-        jolts: JoltConfig::default(),
-        reorder_window_ns: 20_000_000,
-        wheel_distrust: None,
-    };
-    Estimator::new(&config, None).unwrap()
-}
 
 /// Feeds IMU samples from `from_ms` for `ms` with vertical specific force
 /// `az` (m/s^2); gives the obstacle jolts the estimator reported.

@@ -5,32 +5,16 @@
 //! the IMU-propagated state, and releases it the quiet period after the
 //! spin ends.
 
-use traction::ego_ekf::FilterConfig;
-use traction::ego_ekf::events::JoltConfig;
-use traction::estimator::{Estimator, EstimatorConfig};
 use traction::flow_demand::{Command, Cue, FlowDemand, FlowDemandConfig};
 use traction::reorder::Event;
 use traction::vslam_core::Timestamp;
-use traction::vslam_core::scale::PipelineConfig;
 use traction::vslam_core::sensors::{RawImuSample, WheelTicks};
-use traction::wheel_odom::odometry::DiffDriveParams;
 
-const TPR: u32 = 4096;
+mod common;
+use common::estimator;
+
 const SPIN_START_NS: u64 = 2_000_000_000;
 const SPIN_END_NS: u64 = 3_000_000_000;
-
-fn estimator() -> Estimator<'static> {
-    let config = EstimatorConfig {
-        filter: FilterConfig::default(),
-        odometry: DiffDriveParams::new(TPR, 0.035, 0.035, 0.23, 3.0, 500_000_000).unwrap(),
-        scale: PipelineConfig::default(),
-        surface: None,
-        jolts: JoltConfig::default(),
-        reorder_window_ns: 20_000_000,
-        wheel_distrust: None,
-    };
-    Estimator::new(&config, None).unwrap()
-}
 
 #[test]
 fn wheels_spinning_against_a_still_imu_wake_the_sensor_and_quiet_releases_it() {

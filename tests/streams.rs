@@ -8,15 +8,14 @@
 //! `traction::Estimator`. Its counts, its `report.json` entry and its line
 //! in the printed counts come from the registry without another edit.
 
-use traction::ego_ekf::FilterConfig;
-use traction::ego_ekf::events::JoltConfig;
-use traction::estimator::{Estimator, EstimatorConfig};
+use traction::estimator::Estimator;
 use traction::reorder::Event;
 use traction::vslam_core::image::{ImageView, LabelView};
-use traction::vslam_core::scale::PipelineConfig;
 use traction::vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
 use traction::vslam_core::{PerStream, Reject, Stream, Timestamp};
-use traction::wheel_odom::odometry::DiffDriveParams;
+
+mod common;
+use common::estimator;
 
 /// How the samples of a stream reach the estimator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,20 +66,6 @@ fn event(s: Stream, t_ns: u64, k: i16) -> Event {
     };
     assert_eq!(e.stream(), s);
     e
-}
-
-/// An estimator without camera path and surface model: the smallest one.
-fn estimator() -> Estimator<'static> {
-    let config = EstimatorConfig {
-        filter: FilterConfig::default(),
-        odometry: DiffDriveParams::new(4096, 0.035, 0.035, 0.23, 3.0, 500_000_000).unwrap(),
-        scale: PipelineConfig::default(),
-        surface: None,
-        jolts: JoltConfig::default(),
-        reorder_window_ns: 20_000_000,
-        wheel_distrust: None,
-    };
-    Estimator::new(&config, None).unwrap()
 }
 
 #[test]

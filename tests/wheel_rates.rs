@@ -4,29 +4,15 @@
 //! the same filter state, and bad rates are counted by reason in the wheel
 //! stream.
 
-use traction::ego_ekf::FilterConfig;
-use traction::ego_ekf::events::JoltConfig;
-use traction::estimator::{Estimator, EstimatorConfig};
+use traction::estimator::Estimator;
 use traction::reorder::Event;
-use traction::vslam_core::scale::PipelineConfig;
 use traction::vslam_core::sensors::{RawImuSample, RawWheelRates, WheelTicks};
 use traction::vslam_core::{Reject, Stream, Timestamp};
-use traction::wheel_odom::odometry::DiffDriveParams;
+
+mod common;
+use common::estimator;
 
 const TPR: u32 = 4096;
-
-fn estimator() -> Estimator<'static> {
-    let config = EstimatorConfig {
-        filter: FilterConfig::default(),
-        odometry: DiffDriveParams::new(TPR, 0.035, 0.035, 0.23, 3.0, 500_000_000).unwrap(),
-        scale: PipelineConfig::default(),
-        surface: None,
-        jolts: JoltConfig::default(),
-        reorder_window_ns: 20_000_000,
-        wheel_distrust: None,
-    };
-    Estimator::new(&config, None).unwrap()
-}
 
 /// 1 s standing, then 3 s at constant wheel speeds (`n` counts per 20 ms on
 /// the left, `n + 4` on the right); IMU at 250 Hz reading a gentle turn.
