@@ -2,11 +2,13 @@
 //! over embedded sample data, with instruction counts, stack high-water marks
 //! and the sizes of the estimator's objects. See `firmware/README.md`.
 //!
-//! [`sample`], [`frames`] and [`replay`] are target-independent (the host check includes
+//! [`budget`] turns the measured instructions per call into the loop's CPU
+//! budget. [`sample`], [`frames`] and [`replay`] are target-independent (the host check includes
 //! them by `#[path]`); [`systick`], [`stack`] and [`meter`] are the
 //! Cortex-M measurement.
 #![no_std]
 
+pub mod budget;
 pub mod frames;
 pub mod meter;
 pub mod replay;

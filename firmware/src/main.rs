@@ -24,6 +24,7 @@ use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::Extrinsics;
 use traction::vslam_core::scale::ScalePipeline;
 use traction::wheel_odom::odometry::DiffDriveOdometry;
+use traction_firmware::budget;
 use traction_firmware::meter::{Meter, Spread};
 use traction_firmware::replay::{self, Step, TRAJECTORY};
 use traction_firmware::systick;
@@ -87,6 +88,42 @@ fn step_line(out: &mut Out, name: &str, s: &Spread, refused: (u32, u32), stack: 
         out,
         "step {name} n {} min {} median {} max {} mean {} refused {} refused_max {} stack {stack}",
         s.n, s.min, s.median, s.max, s.mean, refused.0, refused.1
+    );
+}
+
+/// The loop's CPU budget (see [`budget`]): one `budget_task` line per
+/// periodic task and exactly one `budget` line for the whole loop.
+fn budget_lines(out: &mut Out, medians: &[Option<u32>]) {
+    let median = |s: Step| medians.get(s.index()).copied().flatten();
+    for task in &budget::LOOP {
+        match budget::cost(task, median) {
+            Some(c) => {
+                let _ = writeln!(
+                    out,
+                    "budget_task {} rate_hz {} per_call {} per_second {} m4_168mhz_percent {:.2} m7_480mhz_percent {:.2}",
+                    task.name,
+                    task.rate_hz,
+                    c.per_call,
+                    c.per_second,
+                    c.percent_of(budget::M4_HZ),
+                    c.percent_of(budget::M7_HZ)
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    out,
+                    "budget_task {} rate_hz {} not_measured",
+                    task.name, task.rate_hz
+                );
+            }
+        }
+    }
+    let t = budget::total(median);
+    let _ = writeln!(
+        out,
+        "budget instructions_per_second {} m4_168mhz_percent {:.2}",
+        t.per_second,
+        t.percent_of(budget::M4_HZ)
     );
 }
 
@@ -198,6 +235,7 @@ fn main() -> ! {
             finish(&mut out, false)
         }
     };
+    let mut medians = [None; Step::ALL.len()];
     for step in Step::ALL {
         let i = step.index();
         let stack = meter.stack.get(i).copied().unwrap_or(0);
@@ -205,6 +243,9 @@ fn main() -> ! {
         if let Some(s) = meter.steps.get_mut(i) {
             let spread = s.spread();
             step_line(&mut out, step.name(), &spread, refused, stack);
+            if let Some(m) = medians.get_mut(i) {
+                *m = (spread.n > 0).then_some(spread.median);
+            }
         }
     }
     let pair = meter.propagate_and_wheel.spread();
@@ -221,6 +262,7 @@ fn main() -> ! {
         (0, 0),
         pair_stack,
     );
+    budget_lines(&mut out, &medians);
     let dropped: u32 = meter.steps.iter().map(|s| s.dropped).sum();
     let _ = writeln!(out, "dropped_measurements {dropped}");
     sizes(&mut out);

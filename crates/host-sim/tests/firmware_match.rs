@@ -36,6 +36,9 @@ mod frames;
 #[allow(dead_code)]
 mod replay;
 
+#[path = "../../../firmware/src/budget.rs"]
+mod budget;
+
 use replay::{FrontEndRun, NoProbe, Summary, Value};
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
@@ -332,4 +335,38 @@ fn firmware_output_matches_host() {
         "firmware and host differ:\n{}",
         problems.join("\n")
     );
+}
+
+/// The budget sums each task's step medians, multiplies by the rate, leaves
+/// out tasks the image does not run and any task with a step never measured.
+#[test]
+fn budget_sums_medians_at_each_rate() {
+    use replay::Step;
+    // Medians 1000 + 10 * index for every step.
+    let all = |s: Step| Some(1000 + 10 * s.index() as u32);
+    let imu = budget::LOOP
+        .iter()
+        .find(|t| t.name == "imu_250hz")
+        .and_then(|t| budget::cost(t, all))
+        .expect("imu task measured");
+    // Propagate (index 0) + ScaleImu (index 4) at 250 Hz.
+    assert_eq!(imu.per_call, 1000 + 1040);
+    assert_eq!(imu.per_second, 2040 * 250);
+    assert!((imu.percent_of(budget::M4_HZ) - 2040.0 * 250.0 * 100.0 / 168e6).abs() < 1e-4);
+    let total = budget::total(all);
+    let by_hand: u64 = budget::LOOP
+        .iter()
+        .filter_map(|t| budget::cost(t, all))
+        .map(|c| c.per_second)
+        .sum();
+    assert_eq!(total.per_second, by_hand);
+    // The camera's front end (index 9) never completed: the camera task drops out.
+    let no_frontend = |s: Step| (s != Step::FrontEnd).then(|| all(s)).flatten();
+    assert!(
+        budget::LOOP
+            .iter()
+            .any(|t| t.name.starts_with("camera") && budget::cost(t, no_frontend).is_none())
+    );
+    assert!(budget::total(no_frontend).per_second < total.per_second);
+    assert!(total.percent_of(budget::M7_HZ) < total.percent_of(budget::M4_HZ));
 }
