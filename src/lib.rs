@@ -79,11 +79,13 @@ pub mod estimate;
 pub mod estimator;
 pub mod flow_demand;
 pub mod frontend;
+pub mod navigate;
 pub mod reorder;
 
 pub use estimate::{Aids, Estimate, PoseCovariance};
 pub use estimator::{Estimator, EstimatorConfig, EstimatorError, Processed};
 pub use frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
+pub use navigate::{NavConfig, Navigator, Policy};
 pub use reorder::Event;
 pub use vslam_core::robot::{RobotDescription, RobotError};
 pub use vslam_core::{Reject, SampleCounts, Stream, StreamCounts, Timestamp};

@@ -35,6 +35,7 @@ pub mod calibrate;
 pub mod chaos;
 pub mod chips;
 pub mod cli;
+pub mod closed_loop;
 pub mod error;
 pub mod faults;
 pub mod import;

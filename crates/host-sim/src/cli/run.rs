@@ -1,6 +1,7 @@
 //! `host-sim simulate` and `host-sim replay`.
 
 use crate::chaos::{ChaosConfig, run_chaos};
+use crate::closed_loop::{LoopOptions, policy_name, route, run_waypoints};
 use crate::error::CliError;
 use crate::faults::{FaultPlan, kinds_help};
 use crate::replay::{ReplayOptions, ReplayOutput, run_replay_with, summary_table};
@@ -10,6 +11,8 @@ use crate::simulate::{scenario_for, simulate_faults_with, simulate_scenario_with
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use traction::ego_ekf::grip::GripParams;
+use traction::navigate::Policy;
 use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
 
 /// Arguments of `host-sim simulate`.
@@ -57,9 +60,91 @@ pub struct SimulateArgs {
     /// Chaos: mean faults per minute.
     #[arg(long, value_name = "N", default_value_t = 6.0, requires = "chaos")]
     pub chaos_rate: f64,
+    /// How the robot is driven: by the scenario's script, or in closed loop
+    /// by the navigator through waypoints on the estimator's answers alone
+    /// (the scenario's world, robot, sensors and slip episodes; writes
+    /// OUT/nav.json, OUT/ekf.tum, OUT/groundtruth.tum).
+    #[arg(long, value_enum, default_value = "script")]
+    pub drive: DriveArg,
+    /// `--drive waypoints`: the route, one `x y` a line in metres (world
+    /// frame: origin where the robot starts, x ahead); the office route
+    /// (over the cable, both strips, carpet and tile) unless given.
+    #[arg(long, value_name = "FILE")]
+    pub waypoints: Option<PathBuf>,
+    /// `--drive waypoints`: how the navigator judges jolts.
+    #[arg(long, value_enum, default_value = "floor-aware")]
+    pub policy: PolicyArg,
+    /// `--policy fixed-threshold`: the peak vertical deviation that stops
+    /// the robot, m/s^2 (default: the jolt a hard floor explains).
+    #[arg(long, value_name = "M_S2", default_value_t = GripParams::default().jolt_threshold())]
+    pub fixed_threshold: f32,
     /// The scale pipeline's settings.
     #[command(flatten)]
     pub scale: ScaleArgs,
+}
+
+/// How `simulate` drives the robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DriveArg {
+    /// The scenario's scripted drive.
+    Script,
+    /// Closed loop through waypoints.
+    Waypoints,
+}
+
+/// The navigator's jolt policy, by its command-line name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PolicyArg {
+    /// Stop at suspected obstacles only; speed by the floor's grip.
+    FloorAware,
+    /// Stop at every jolt above `--fixed-threshold`; cruise speed everywhere.
+    FixedThreshold,
+}
+
+/// `simulate --drive waypoints`.
+fn run_waypoints_cmd(a: &SimulateArgs) -> Result<(), CliError> {
+    let sc = scenario_for(&a.scenario, None)?;
+    let route = match &a.waypoints {
+        Some(p) => route::read(p)?,
+        None => route::OFFICE_ROUTE.to_vec(),
+    };
+    let policy = match a.policy {
+        PolicyArg::FloorAware => Policy::FloorAware,
+        PolicyArg::FixedThreshold => Policy::FixedThreshold {
+            threshold: a.fixed_threshold,
+        },
+    };
+    let max_s = match a.duration {
+        None => LoopOptions::default().max_s,
+        Some(d) if d.is_finite() && d > 0.0 && d <= 86_400.0 => d,
+        Some(d) => {
+            return Err(CliError::Usage(format!(
+                "duration {d} s: expected a number of seconds in (0, 86400]"
+            )));
+        }
+    };
+    let options = LoopOptions {
+        policy,
+        max_s,
+        ..LoopOptions::default()
+    };
+    println!(
+        "driving `{}` (seed {}) through {} waypoints, {}, into {}",
+        a.scenario,
+        a.seed,
+        route.len(),
+        policy_name(policy),
+        a.out.display()
+    );
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| CliError::file(&a.out, format!("cannot create: {e}")))?;
+    let run = run_waypoints(&sc, a.seed, &route, options, &a.out)?;
+    print!("{}", run.summary(&route));
+    println!(
+        "wrote {}/{{nav.json,ekf.tum,groundtruth.tum}}",
+        a.out.display()
+    );
+    Ok(())
 }
 
 /// The scale pipeline's selection method, by its command-line name.
@@ -281,6 +366,14 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
             a.scenario,
             SCENARIOS.join(", ")
         )));
+    }
+    if a.drive == DriveArg::Waypoints {
+        if a.chaos.is_some() || a.faults.is_some() {
+            return Err(CliError::Usage(
+                "--drive waypoints runs without --faults or --chaos".into(),
+            ));
+        }
+        return run_waypoints_cmd(&a);
     }
     let progress = std::io::stderr().is_terminal();
     if let Some(chaos_seed) = a.chaos {

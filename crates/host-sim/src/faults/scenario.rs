@@ -22,6 +22,7 @@ pub const BUMP_CABLE: Strip = Strip {
     width: 0.008,
     height: 0.012,
     threshold: false,
+    span: crate::sim::world::ACROSS,
 };
 
 /// `sc` with the motion faults of `plan` applied.

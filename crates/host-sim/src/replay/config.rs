@@ -216,7 +216,7 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
 /// the surface model from `seg0`, and the scale pipeline's selection method,
 /// composition and distance and the scale pipeline's distrust of the wheels
 /// passed to the EKF as `options` say.
-pub(super) fn estimator_config(
+pub(crate) fn estimator_config(
     ds: &Dataset,
     root: &Path,
     options: &ReplayOptions,
@@ -253,7 +253,7 @@ pub(super) fn estimator_config(
 
 /// The camera path's configuration from `cam0/sensor.yaml` (resolution and
 /// intrinsics) and the camera's mounting; `None` without a camera.
-pub(super) fn frontend_config(
+pub(crate) fn frontend_config(
     ds: &Dataset,
     root: &Path,
     camera_mount: Extrinsics,

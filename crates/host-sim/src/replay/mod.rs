@@ -15,8 +15,10 @@ pub mod memory;
 mod report;
 mod run;
 
+pub(crate) use config::{estimator_config, frontend_config};
 pub use config::{imu_rate_hz, robot_description, robot_description_with};
 pub use report::{summary_table, write_outputs};
+pub(crate) use run::FrontEndMemory;
 
 use crate::asl::Dataset;
 use crate::error::CliError;

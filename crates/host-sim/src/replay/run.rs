@@ -70,7 +70,7 @@ enum Next {
 }
 
 /// The camera path's memory, borrowed by the estimator.
-struct FrontEndMemory {
+pub(crate) struct FrontEndMemory {
     previous_frame: Vec<u8>,
     previous_pyramid: Vec<u8>,
     current_pyramid: Vec<u8>,
@@ -78,7 +78,7 @@ struct FrontEndMemory {
 }
 
 impl FrontEndMemory {
-    fn new(config: Option<&FrontEndConfig>) -> Self {
+    pub(crate) fn new(config: Option<&FrontEndConfig>) -> Self {
         let sizes = config
             .map(|c| FrontEndBuffers::sizes(c.width, c.height, c.levels, c.corners.block_size))
             .unwrap_or([0; 4]);
@@ -91,7 +91,7 @@ impl FrontEndMemory {
     }
 
     /// The camera path over this memory, when there is a camera.
-    fn frontend(
+    pub(crate) fn frontend(
         &mut self,
         config: Option<FrontEndConfig>,
         root: &Path,

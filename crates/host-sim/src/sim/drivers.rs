@@ -227,6 +227,51 @@ pub fn wheels_through_driver_with(
     Ok(out)
 }
 
+/// The two encoders read one sample at a time, through the driver as in
+/// [`wheels_through_driver`] (no faults): for a closed loop, where the wheel
+/// angles of the next read depend on what the last ones made the robot do.
+pub struct Encoders {
+    left: std::rc::Rc<std::cell::RefCell<EncoderSim>>,
+    right: std::rc::Rc<std::cell::RefCell<EncoderSim>>,
+    pair: WheelPair<As5047pEncoder<Shared<EncoderSim>>, As5047pEncoder<Shared<EncoderSim>>>,
+}
+
+impl Encoders {
+    /// Both encoders powered up.
+    pub fn new() -> Result<Self, CliError> {
+        let left = Shared::new(EncoderSim::new());
+        let right = Shared::new(EncoderSim::new());
+        let (lh, rh) = (left.handle(), right.handle());
+        let enc = |spi, polarity| {
+            As5047pEncoder::new(As5047p::new(spi), polarity, Some(MAX_COUNTS_PER_READ))
+                .map_err(|e| driver_error("encoder setup", e))
+        };
+        Ok(Encoders {
+            left: lh.0,
+            right: rh.0,
+            pair: WheelPair::new(
+                enc(left, Polarity::Normal)?,
+                enc(right, Polarity::Reversed)?,
+            ),
+        })
+    }
+
+    /// Reads both encoders at `t` with the wheels at angles `l`, `r` (radians).
+    pub fn read(
+        &mut self,
+        t: traction::vslam_core::Timestamp,
+        l: f64,
+        r: f64,
+    ) -> Result<WheelTicks, CliError> {
+        self.left.borrow_mut().set_angle_radians(l);
+        // Mounted mirrored: the right encoder turns backwards when the wheel rolls forward.
+        self.right.borrow_mut().set_angle_radians(-r);
+        self.pair
+            .read_ticks(t)
+            .map_err(|e| driver_error("encoder read", e))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -86,27 +86,49 @@ fn approach(current: f64, target: f64, max_step: f64) -> f64 {
     current + (target - current).clamp(-max_step, max_step)
 }
 
-/// Integrates the script in `world` for `robot`, starting at the origin heading +x.
-pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep> {
-    let dt = TRUTH_STEP_NS as f64 * 1e-9;
-    let n = (script.duration / dt).round() as usize + 1;
-    let mut out = Vec::with_capacity(n);
-    let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut v, mut w) = (0.0f64, 0.0f64);
-    let mut wheel = [0.0f64; 2];
-    for i in 0..n {
-        let t = i as f64 * dt;
-        let (vc, wc) = script.command(t);
-        v = approach(v, vc, robot.max_accel * dt);
-        w = approach(w, wc, robot.max_yaw_accel * dt);
-        let episode = script.episode(t);
+/// The robot's true motion, one truth step at a time, from the origin
+/// heading +x: what [`integrate`] runs over a script, and what a closed
+/// loop runs with the commands of a controller.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Motion {
+    i: u64,
+    x: f64,
+    y: f64,
+    yaw: f64,
+    v: f64,
+    w: f64,
+    wheel: [f64; 2],
+}
+
+impl Motion {
+    /// The time of the next step, seconds.
+    pub fn t(&self) -> f64 {
+        self.i as f64 * TRUTH_STEP_NS as f64 * 1e-9
+    }
+
+    /// The true state now under the commanded `(v, w)`, the slip `episode`
+    /// and the body `lift` of this time; then moves on one step. The
+    /// accelerations are left at zero ([`differentiate_at`] fills them).
+    pub fn step(
+        &mut self,
+        world: &World,
+        robot: &Robot,
+        (vc, wc): (f64, f64),
+        episode: Option<EpisodeKind>,
+        lift: f64,
+    ) -> TruthStep {
+        let dt = TRUTH_STEP_NS as f64 * 1e-9;
+        let (x, y, yaw) = (self.x, self.y, self.yaw);
+        self.v = approach(self.v, vc, robot.max_accel * dt);
+        self.w = approach(self.w, wc, robot.max_yaw_accel * dt);
+        let (v, w) = (self.v, self.w);
         let held = matches!(episode, Some(EpisodeKind::Stuck | EpisodeKind::Lifted));
         let (vg, wg) = match episode {
             Some(EpisodeKind::Stuck) => (0.0, 0.0),
             // Picked up and set down again: the body's ground speed fades
             // out while it rises and back in while it comes down.
             Some(EpisodeKind::Lifted) => {
-                let on_floor = 1.0 - script.lift(t) / LIFT_HEIGHT;
+                let on_floor = 1.0 - lift / LIFT_HEIGHT;
                 (v * on_floor, w * on_floor)
             }
             _ => (v, w),
@@ -126,10 +148,11 @@ pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep
             (vg - wg * half, vg + wg * half)
         };
         let z = 0.5
-            * (world.wheel_lift(x, robot.radius_left) + world.wheel_lift(x, robot.radius_right))
-            + script.lift(t);
-        out.push(TruthStep {
-            t_ns: i as u64 * TRUTH_STEP_NS,
+            * (world.wheel_lift(x, y, robot.radius_left)
+                + world.wheel_lift(x, y, robot.radius_right))
+            + lift;
+        let out = TruthStep {
+            t_ns: self.i * TRUTH_STEP_NS,
             p: [x, y, z],
             yaw,
             v: vg,
@@ -137,45 +160,68 @@ pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep
             vel: [vg * yaw.cos(), vg * yaw.sin(), 0.0],
             acc: [0.0; 3],
             surface,
-            wheel_angle: wheel,
+            wheel_angle: self.wheel,
             episode,
-        });
-        wheel[0] += vl * factor / robot.radius_left * dt;
-        wheel[1] += vr * factor / robot.radius_right * dt;
+        };
+        self.wheel[0] += vl * factor / robot.radius_left * dt;
+        self.wheel[1] += vr * factor / robot.radius_right * dt;
         // Exact integration of a constant-twist step.
         if wg.abs() > 1e-9 {
             let r = vg / wg;
-            x += r * ((yaw + wg * dt).sin() - yaw.sin());
-            y -= r * ((yaw + wg * dt).cos() - yaw.cos());
+            self.x += r * ((yaw + wg * dt).sin() - yaw.sin());
+            self.y -= r * ((yaw + wg * dt).cos() - yaw.cos());
         } else {
-            x += vg * dt * yaw.cos();
-            y += vg * dt * yaw.sin();
+            self.x += vg * dt * yaw.cos();
+            self.y += vg * dt * yaw.sin();
         }
-        yaw += wg * dt;
+        self.yaw += wg * dt;
+        self.i += 1;
+        out
     }
-    differentiate(&mut out, dt);
+}
+
+/// Integrates the script in `world` for `robot`, starting at the origin heading +x.
+pub fn integrate(world: &World, script: &Script, robot: &Robot) -> Vec<TruthStep> {
+    let dt = TRUTH_STEP_NS as f64 * 1e-9;
+    let n = (script.duration / dt).round() as usize + 1;
+    let mut out = Vec::with_capacity(n);
+    let mut motion = Motion::default();
+    for i in 0..n {
+        let t = i as f64 * dt;
+        out.push(motion.step(
+            world,
+            robot,
+            script.command(t),
+            script.episode(t),
+            script.lift(t),
+        ));
+    }
+    for i in 1..n.saturating_sub(1) {
+        differentiate_at(&mut out, i);
+    }
     out
 }
 
-/// Fills vertical velocity and all accelerations by central differences.
-fn differentiate(steps: &mut [TruthStep], dt: f64) {
-    let n = steps.len();
-    if n < 3 {
+/// Fills step `i`'s vertical velocity and accelerations by central
+/// differences of its neighbours (nothing for the first and last step).
+pub fn differentiate_at(steps: &mut [TruthStep], i: usize) {
+    let dt = TRUTH_STEP_NS as f64 * 1e-9;
+    let (Some(prev), Some(next)) = (
+        i.checked_sub(1).and_then(|k| steps.get(k)),
+        steps.get(i + 1),
+    ) else {
         return;
-    }
-    let pz: Vec<f64> = steps.iter().map(|s| s.p[2]).collect();
-    let vel: Vec<[f64; 3]> = steps.iter().map(|s| s.vel).collect();
-    for i in 1..n - 1 {
-        let vz = (pz[i + 1] - pz[i - 1]) / (2.0 * dt);
-        let az = (pz[i + 1] - 2.0 * pz[i] + pz[i - 1]) / (dt * dt);
-        let s = &mut steps[i];
-        s.vel[2] = vz;
-        s.acc = [
-            (vel[i + 1][0] - vel[i - 1][0]) / (2.0 * dt),
-            (vel[i + 1][1] - vel[i - 1][1]) / (2.0 * dt),
-            az,
-        ];
-    }
+    };
+    let (prev, next) = (*prev, *next);
+    let Some(s) = steps.get_mut(i) else { return };
+    let vz = (next.p[2] - prev.p[2]) / (2.0 * dt);
+    let az = (next.p[2] - 2.0 * s.p[2] + prev.p[2]) / (dt * dt);
+    s.vel[2] = vz;
+    s.acc = [
+        (next.vel[0] - prev.vel[0]) / (2.0 * dt),
+        (next.vel[1] - prev.vel[1]) / (2.0 * dt),
+        az,
+    ];
 }
 
 #[cfg(test)]

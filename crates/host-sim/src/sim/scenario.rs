@@ -161,6 +161,78 @@ fn groundtruth(truth: &[TruthStep], biases: &[[[f64; 3]; 2]], every: usize) -> V
         .collect()
 }
 
+/// The dataset of scenario `sc` without samples: every sensor's metadata
+/// (what `sensor.yaml` says), empty streams and no ground truth.
+pub fn dataset_of(sc: &Scenario) -> Dataset {
+    let identity = [
+        1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+    ];
+    let m = &sc.imu;
+    let to_u32 = |r: [usize; 2]| [r[0] as u32, r[1] as u32];
+    Dataset {
+        imu: Some((
+            ImuMeta {
+                t_bs: identity,
+                rate_hz: m.rate_hz,
+                gyroscope_noise_density: m.gyro_noise_density,
+                gyroscope_random_walk: m.gyro_random_walk,
+                accelerometer_noise_density: m.accel_noise_density,
+                accelerometer_random_walk: m.accel_random_walk,
+            },
+            Vec::new(),
+        )),
+        wheel: Some((
+            WheelMeta {
+                rate_hz: sc.wheel_rate_hz,
+                ticks_per_revolution: Some(sc.robot.ticks_per_revolution),
+                wheel_radius_left: sc.robot.nominal_radius,
+                wheel_radius_right: sc.robot.nominal_radius,
+                wheel_base: sc.robot.wheel_base,
+                track_factor: 1.0,
+                wheel_type: "soft_rubber".into(),
+            },
+            Vec::new(),
+        )),
+        flow: Some((
+            FlowMeta {
+                rate_hz: sc.flow.rate_hz,
+                t_bs: sc.flow.t_bs_matrix(),
+                height: sc.flow.t_bs[2],
+                counts_per_radian: sc.flow.counts_per_radian,
+            },
+            Vec::new(),
+        )),
+        cam: Some((
+            CameraMeta {
+                rate_hz: sc.camera.rate_hz,
+                t_bs: sc.camera.t_bs_matrix(),
+                resolution: to_u32(sc.camera.resolution),
+                intrinsics: sc.camera.intrinsics,
+                distortion_model: "radtan".into(),
+                distortion_coefficients: vec![0.0; 4],
+            },
+            Vec::new(),
+        )),
+        seg: Some((
+            SegMeta {
+                rate_hz: sc.segmentation.rate_hz,
+                t_bs: sc.segmentation.t_bs_matrix(),
+                resolution: to_u32(sc.segmentation.resolution),
+                intrinsics: sc.segmentation.intrinsics,
+                classes: SEG_CLASSES
+                    .iter()
+                    .map(|(k, v)| (*k, (*v).to_string()))
+                    .collect(),
+                ground_classes: SEG_GROUND.to_vec(),
+            },
+            Vec::new(),
+        )),
+        groundtruth: None,
+        wheel_rates: None,
+        labels: None,
+    }
+}
+
 /// Simulates `sc` with `seed`, writing images under `root/mav0/{cam0,seg0}/data/`;
 /// returns the dataset (also to be written with `asl::write_dataset`) and the truth.
 /// Shows no progress.
@@ -320,73 +392,23 @@ pub fn generate_with(
     }
     rendering.finish_and_clear();
 
-    let identity = [
-        1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
-    ];
-    let m = &sc.imu;
-    let to_u32 = |r: [usize; 2]| [r[0] as u32, r[1] as u32];
-    let ds = Dataset {
-        imu: Some((
-            ImuMeta {
-                t_bs: identity,
-                rate_hz: m.rate_hz,
-                gyroscope_noise_density: m.gyro_noise_density,
-                gyroscope_random_walk: m.gyro_random_walk,
-                accelerometer_noise_density: m.accel_noise_density,
-                accelerometer_random_walk: m.accel_random_walk,
-            },
-            imu_samples,
-        )),
-        wheel: Some((
-            WheelMeta {
-                rate_hz: sc.wheel_rate_hz,
-                ticks_per_revolution: Some(sc.robot.ticks_per_revolution),
-                wheel_radius_left: sc.robot.nominal_radius,
-                wheel_radius_right: sc.robot.nominal_radius,
-                wheel_base: sc.robot.wheel_base,
-                track_factor: 1.0,
-                wheel_type: "soft_rubber".into(),
-            },
-            wheel_samples,
-        )),
-        flow: Some((
-            FlowMeta {
-                rate_hz: sc.flow.rate_hz,
-                t_bs: sc.flow.t_bs_matrix(),
-                height: sc.flow.t_bs[2],
-                counts_per_radian: sc.flow.counts_per_radian,
-            },
-            flow_samples,
-        )),
-        cam: Some((
-            CameraMeta {
-                rate_hz: sc.camera.rate_hz,
-                t_bs: sc.camera.t_bs_matrix(),
-                resolution: to_u32(sc.camera.resolution),
-                intrinsics: sc.camera.intrinsics,
-                distortion_model: "radtan".into(),
-                distortion_coefficients: vec![0.0; 4],
-            },
-            frames,
-        )),
-        seg: Some((
-            SegMeta {
-                rate_hz: sc.segmentation.rate_hz,
-                t_bs: sc.segmentation.t_bs_matrix(),
-                resolution: to_u32(sc.segmentation.resolution),
-                intrinsics: sc.segmentation.intrinsics,
-                classes: SEG_CLASSES
-                    .iter()
-                    .map(|(k, v)| (*k, (*v).to_string()))
-                    .collect(),
-                ground_classes: SEG_GROUND.to_vec(),
-            },
-            labels,
-        )),
-        groundtruth: Some(groundtruth(&truth, &biases, every(m.rate_hz))),
-        wheel_rates: None,
-        labels: None,
-    };
+    let mut ds = dataset_of(sc);
+    if let Some((_, v)) = ds.imu.as_mut() {
+        *v = imu_samples;
+    }
+    if let Some((_, v)) = ds.wheel.as_mut() {
+        *v = wheel_samples;
+    }
+    if let Some((_, v)) = ds.flow.as_mut() {
+        *v = flow_samples;
+    }
+    if let Some((_, v)) = ds.cam.as_mut() {
+        *v = frames;
+    }
+    if let Some((_, v)) = ds.seg.as_mut() {
+        *v = labels;
+    }
+    ds.groundtruth = Some(groundtruth(&truth, &biases, every(sc.imu.rate_hz)));
     Ok((ds, truth, faults))
 }
 

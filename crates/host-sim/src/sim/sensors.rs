@@ -77,21 +77,59 @@ pub fn imu(
     m: &ImuModel,
     rng: &mut ChaCha8Rng,
 ) -> (Vec<RawImuSample>, Vec<[[f64; 3]; 2]>) {
-    let every = ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
-    let dt = every as f64 * TRUTH_STEP_NS as f64 * 1e-9;
-    let (gn, an) = (
-        m.gyro_noise_density / dt.sqrt(),
-        m.accel_noise_density / dt.sqrt(),
-    );
-    let (gw, aw) = (
-        m.gyro_random_walk * dt.sqrt(),
-        m.accel_random_walk * dt.sqrt(),
-    );
-    let (mut bg, mut ba) = (m.gyro_bias, m.accel_bias);
+    let mut imu = Imu::new(m);
     let mut out = Vec::new();
     let mut biases = Vec::new();
-    for (i, s) in truth.iter().enumerate().step_by(every) {
-        let period = truth.get(i.saturating_sub(every - 1)..=i).unwrap_or(&[]);
+    for (i, s) in truth.iter().enumerate().step_by(imu.every) {
+        let period = truth
+            .get(i.saturating_sub(imu.every - 1)..=i)
+            .unwrap_or(&[]);
+        let (sample, bias) = imu.sample(period, s, rng);
+        out.push(sample);
+        biases.push(bias);
+    }
+    (out, biases)
+}
+
+/// The IMU one sample at a time: noise levels and the biases' random walk.
+#[derive(Clone, Copy, Debug)]
+pub struct Imu {
+    /// Truth steps per sample.
+    pub every: usize,
+    gn: f64,
+    an: f64,
+    gw: f64,
+    aw: f64,
+    bg: [f64; 3],
+    ba: [f64; 3],
+}
+
+impl Imu {
+    /// The IMU of model `m` at its initial biases.
+    pub fn new(m: &ImuModel) -> Self {
+        let every = ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+        let dt = every as f64 * TRUTH_STEP_NS as f64 * 1e-9;
+        Imu {
+            every,
+            gn: m.gyro_noise_density / dt.sqrt(),
+            an: m.accel_noise_density / dt.sqrt(),
+            gw: m.gyro_random_walk * dt.sqrt(),
+            aw: m.accel_random_walk * dt.sqrt(),
+            bg: m.gyro_bias,
+            ba: m.accel_bias,
+        }
+    }
+
+    /// The sample at truth step `s`, the mean over `period` (the truth
+    /// steps after the previous sample up to `s`), and the true biases in it
+    /// (gyro, accel); the biases walk on.
+    pub fn sample(
+        &mut self,
+        period: &[TruthStep],
+        s: &TruthStep,
+        rng: &mut ChaCha8Rng,
+    ) -> (RawImuSample, [[f64; 3]; 2]) {
+        let (bg, ba) = (self.bg, self.ba);
         let (mean_f, mean_w) = mean_body_motion(period);
         let fb = [
             mean_f[0],
@@ -99,27 +137,28 @@ pub fn imu(
             mean_f[2] + gauss(rng, floor_vibration(s.surface)),
         ];
         let gyro = [
-            bg[0] + gauss(rng, gn),
-            bg[1] + gauss(rng, gn),
-            mean_w + bg[2] + gauss(rng, gn),
+            bg[0] + gauss(rng, self.gn),
+            bg[1] + gauss(rng, self.gn),
+            mean_w + bg[2] + gauss(rng, self.gn),
         ];
         let accel = [
-            fb[0] + ba[0] + gauss(rng, an),
-            fb[1] + ba[1] + gauss(rng, an),
-            fb[2] + ba[2] + gauss(rng, an),
+            fb[0] + ba[0] + gauss(rng, self.an),
+            fb[1] + ba[1] + gauss(rng, self.an),
+            fb[2] + ba[2] + gauss(rng, self.an),
         ];
-        out.push(RawImuSample {
-            t: Timestamp(s.t_ns),
-            gyro: gyro.map(|v| v as f32),
-            accel: accel.map(|v| v as f32),
-        });
-        biases.push([bg, ba]);
         for i in 0..3 {
-            bg[i] += gauss(rng, gw);
-            ba[i] += gauss(rng, aw);
+            self.bg[i] += gauss(rng, self.gw);
+            self.ba[i] += gauss(rng, self.aw);
         }
+        (
+            RawImuSample {
+                t: Timestamp(s.t_ns),
+                gyro: gyro.map(|v| v as f32),
+                accel: accel.map(|v| v as f32),
+            },
+            [bg, ba],
+        )
     }
-    (out, biases)
 }
 
 /// The mean specific force (the (level) body's axes, m/s^2) and yaw rate
@@ -207,20 +246,49 @@ pub fn flow_quality(s: Option<Surface>) -> (f64, f64, f64) {
 /// Flow reports: counts since the previous report (sub-count remainders are
 /// kept, as the chip does), zero counts when the report is invalid.
 pub fn flow(truth: &[TruthStep], m: &FlowModel, rng: &mut ChaCha8Rng) -> Vec<FlowSample> {
-    let every = ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
-    let h = m.t_bs[2];
-    let dt = TRUTH_STEP_NS as f64 * 1e-9;
-    let mut acc = [0.0f64; 2];
-    let mut out = Vec::new();
-    for (i, s) in truth.iter().enumerate() {
+    let mut flow = Flow::new(m);
+    truth.iter().filter_map(|s| flow.step(s, m, rng)).collect()
+}
+
+/// The flow sensor one truth step at a time: the counts accumulated since
+/// the last report.
+#[derive(Clone, Copy, Debug)]
+pub struct Flow {
+    every: usize,
+    i: usize,
+    acc: [f64; 2],
+}
+
+impl Flow {
+    /// A sensor of model `m` that has seen nothing yet.
+    pub fn new(m: &FlowModel) -> Self {
+        Flow {
+            every: ((1e9 / m.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize,
+            i: 0,
+            acc: [0.0; 2],
+        }
+    }
+
+    /// Takes truth step `s` (the next one); gives the report read at it, if any.
+    pub fn step(
+        &mut self,
+        s: &TruthStep,
+        m: &FlowModel,
+        rng: &mut ChaCha8Rng,
+    ) -> Option<FlowSample> {
+        let h = m.t_bs[2];
+        let dt = TRUTH_STEP_NS as f64 * 1e-9;
+        let i = self.i;
+        self.i += 1;
+        let acc = &mut self.acc;
         // Sensor velocity in the body: v + w x r; then into the sensor frame.
         let vb = [s.v - s.w * m.t_bs[1], s.w * m.t_bs[0], 0.0];
         let vs = [vb[0], -vb[1]];
         for k in 0..2 {
             acc[k] += vs[k] * dt / h * m.counts_per_radian;
         }
-        if i % every != 0 || i == 0 {
-            continue;
+        if !i.is_multiple_of(self.every) || i == 0 {
+            return None;
         }
         // Lifted, the sensor sees no floor in focus.
         let floor = if s.episode == Some(super::script::EpisodeKind::Lifted) {
@@ -247,12 +315,11 @@ pub fn flow(truth: &[TruthStep], m: &FlowModel, rng: &mut ChaCha8Rng) -> Vec<Flo
             sample.dx = dx.clamp(i16::MIN as f64, i16::MAX as f64) as i16;
             sample.dy = dy.clamp(i16::MIN as f64, i16::MAX as f64) as i16;
         } else {
-            acc = [0.0; 2];
+            *acc = [0.0; 2];
         }
         sample.motion = sample.dx != 0 || sample.dy != 0;
-        out.push(sample);
+        Some(sample)
     }
-    out
 }
 
 #[cfg(test)]

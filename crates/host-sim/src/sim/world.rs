@@ -80,7 +80,12 @@ pub struct Strip {
     pub height: f64,
     /// `true` for a threshold strip between rooms, `false` for an obstacle (cable).
     pub threshold: bool,
+    /// The stretch of y it lies along, metres ([`ACROSS`]: across the whole room).
+    pub span: [f64; 2],
 }
+
+/// The span of a strip across the whole room.
+pub const ACROSS: [f64; 2] = [f64::NEG_INFINITY, f64::INFINITY];
 
 /// The whole world.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,10 +116,11 @@ impl World {
             .find(|s| (x - s.at).abs() <= 0.5 * s.width)
     }
 
-    /// Height of a wheel of radius `wheel_radius` resting at `x`, metres.
-    pub fn wheel_lift(&self, x: f64, wheel_radius: f64) -> f64 {
+    /// Height of a wheel of radius `wheel_radius` resting at `(x, y)`, metres.
+    pub fn wheel_lift(&self, x: f64, y: f64, wheel_radius: f64) -> f64 {
         self.strips
             .iter()
+            .filter(|s| y >= s.span[0] && y <= s.span[1])
             .map(|s| {
                 let run = 0.5 * s.width + (2.0 * wheel_radius * s.height).sqrt();
                 let d = (x - s.at).abs();
@@ -131,7 +137,8 @@ impl World {
     }
 
     /// The office: wood, carpet and tile rooms in a row with threshold strips
-    /// between them, and a cable lying on the wood.
+    /// between them, and a cable lying on the wood across the first room's
+    /// middle (1.2 m of it, from y = -0.6 m to 0.6 m: a robot can go round).
     pub fn office() -> Self {
         World {
             rooms: vec![
@@ -157,18 +164,21 @@ impl World {
                     width: 0.04,
                     height: 0.006,
                     threshold: true,
+                    span: ACROSS,
                 },
                 Strip {
                     at: 8.0,
                     width: 0.04,
                     height: 0.006,
                     threshold: true,
+                    span: ACROSS,
                 },
                 Strip {
                     at: 2.0,
                     width: 0.008,
                     height: 0.012,
                     threshold: false,
+                    span: [-0.6, 0.6],
                 },
             ],
             ceiling_height: 2.5,
@@ -204,11 +214,17 @@ mod tests {
         assert_eq!(w.surface_at(5.0, 0.0), Some(Surface::Carpet));
         assert_eq!(w.surface_at(9.0, 0.0), Some(Surface::Tile));
         assert_eq!(w.surface_at(20.0, 0.0), None);
-        assert_eq!(w.wheel_lift(4.0, 0.035), 0.006);
-        assert_eq!(w.wheel_lift(3.0, 0.035), 0.0);
-        let half = w.wheel_lift(4.0 + 0.02 + 0.5 * (2.0f64 * 0.035 * 0.006).sqrt(), 0.035);
+        assert_eq!(w.wheel_lift(4.0, 0.0, 0.035), 0.006);
+        assert_eq!(w.wheel_lift(3.0, 0.0, 0.035), 0.0);
+        let half = w.wheel_lift(
+            4.0 + 0.02 + 0.5 * (2.0f64 * 0.035 * 0.006).sqrt(),
+            1.0,
+            0.035,
+        );
         assert!((half - 0.003).abs() < 1e-9, "{half}");
         assert!(w.strip_at(2.003).is_some_and(|s| !s.threshold));
+        assert_eq!(w.wheel_lift(2.0, 0.0, 0.035), 0.012);
+        assert_eq!(w.wheel_lift(2.0, 0.9, 0.035), 0.0, "round the cable's end");
     }
 
     #[test]
@@ -216,7 +232,7 @@ mod tests {
         let w = World::straight();
         for x in [-0.5, 0.0, 2.0, 4.0, 8.0, 11.0, 12.4] {
             assert_eq!(w.surface_at(x, 0.0), Some(Surface::Wood), "{x}");
-            assert_eq!(w.wheel_lift(x, 0.035), 0.0, "{x}");
+            assert_eq!(w.wheel_lift(x, 0.0, 0.035), 0.0, "{x}");
         }
         assert_eq!(w.ceiling_height, World::office().ceiling_height);
     }
