@@ -45,6 +45,7 @@ pub mod plot;
 pub mod pngio;
 pub mod progress;
 pub mod replay;
+pub mod segtrain;
 pub mod sim;
 pub mod simulate;
 pub mod terrain;

@@ -74,6 +74,7 @@ pub mod pyramid;
 pub mod reject;
 pub mod robot;
 pub mod scale;
+pub mod segment;
 pub mod sensors;
 pub mod stream;
 pub mod time;

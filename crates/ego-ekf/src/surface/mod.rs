@@ -22,6 +22,7 @@
 
 pub mod anticipation;
 pub mod classes;
+pub mod floor_model;
 pub mod grip_table;
 pub mod jolt_context;
 pub mod learning;
@@ -31,6 +32,7 @@ pub mod tracker;
 
 pub use anticipation::{Anticipation, CameraError, GroundCamera};
 pub use classes::{ClassConfig, ClassRole, SurfaceKind};
+pub use floor_model::FloorModel;
 pub use grip_table::{GripModel, GripTable, GripTableError, WheelType, lerp_params};
 pub use jolt_context::JoltContext;
 pub use learning::{

@@ -9,7 +9,7 @@
 //! | `wheel0` | `#timestamp [ns],left [ticks],right [ticks]` (cumulative) |
 //! | `wheel0`, rates | `#timestamp [ns],left [rad s^-1],right [rad s^-1]` (wheel angular rates at the time stamp, positive forward; `sensor.yaml` without `ticks_per_revolution`) |
 //! | `flow0` | `#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter` |
-//! | `cam0`, `seg0` | `#timestamp [ns],filename` (images in `data/`) |
+//! | `cam0`, `seg0`, `cam1` | `#timestamp [ns],filename` (images in `data/`) |
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
@@ -93,6 +93,9 @@ pub struct Dataset {
     pub cam: Option<(CameraMeta, Vec<ImageEntry>)>,
     /// Segmentation label maps.
     pub seg: Option<(SegMeta, Vec<ImageEntry>)>,
+    /// Forward camera frames (`cam1`) a segmentation model labels when
+    /// there are no maps (`seg0`).
+    pub cam1: Option<(CameraMeta, Vec<ImageEntry>)>,
     /// Ground truth, when recorded.
     pub groundtruth: Option<Vec<GroundTruth>>,
     /// `labels.yaml`, when present.
@@ -250,6 +253,10 @@ pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliErr
         let meta = SegMeta::read(&d.join("sensor.yaml"))?;
         ds.seg = Some((meta, read_images(&d)?));
     }
+    if let Some(d) = sensor_dir(root, "cam1") {
+        let meta = CameraMeta::read(&d.join("sensor.yaml"))?;
+        ds.cam1 = Some((meta, read_images(&d)?));
+    }
     if let Some(d) = sensor_dir(root, "state_groundtruth_estimate0") {
         let p = d.join("data.csv");
         let mut v = Vec::new();
@@ -354,6 +361,11 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
     }
     if let Some((meta, v)) = &ds.seg {
         let d = mk("seg0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        write_images(&d, v)?;
+    }
+    if let Some((meta, v)) = &ds.cam1 {
+        let d = mk("cam1")?;
         meta.write(&d.join("sensor.yaml"))?;
         write_images(&d, v)?;
     }
@@ -474,6 +486,7 @@ mod tests {
             )),
             cam: None,
             seg: None,
+            cam1: None,
             groundtruth: Some(vec![GroundTruth {
                 t: Timestamp(4_000_000),
                 p: [1.0, 2.0, 0.0],

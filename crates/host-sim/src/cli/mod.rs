@@ -19,6 +19,7 @@ pub mod calibrate;
 pub mod homography;
 pub mod import;
 pub mod run;
+pub mod segmenter;
 pub mod terrain;
 pub mod track;
 

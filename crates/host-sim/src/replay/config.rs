@@ -3,10 +3,11 @@
 //! sensor under `mav0/`, each with its noise figures and `T_BS`).
 
 use super::ReplayOptions;
-use crate::asl::{Dataset, SegMeta, WheelMeta};
+use crate::asl::{CameraMeta, Dataset, SegMeta, WheelMeta};
 use crate::calibrate::WheelGeometry;
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
+use traction::ego_ekf::surface::floor_model::{CELL, CLASS_NAMES};
 use traction::ego_ekf::surface::{
     ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
 };
@@ -78,6 +79,32 @@ fn surface_config(
         ClassConfig::from_lists(&pairs, &ground),
         camera,
     ))
+}
+
+/// What the reference floor model's maps of `cam1` frames are: the
+/// camera's pose, its geometry at the map's resolution (one cell per
+/// [`CELL`] x [`CELL`] pixels) and the model's class table.
+pub(super) fn model_map_meta(cam1: &CameraMeta) -> SegMeta {
+    let cell = CELL as f64;
+    let [fu, fv, cu, cv] = cam1.intrinsics;
+    let offset = 0.5 * (cell - 1.0);
+    SegMeta {
+        rate_hz: cam1.rate_hz,
+        t_bs: cam1.t_bs,
+        resolution: cam1.resolution.map(|r| r / CELL as u32),
+        intrinsics: [
+            fu / cell,
+            fv / cell,
+            (cu - offset) / cell,
+            (cv - offset) / cell,
+        ],
+        classes: CLASS_NAMES
+            .iter()
+            .enumerate()
+            .map(|(id, name)| (id as u8, (*name).to_string()))
+            .collect(),
+        ground_classes: vec![2, 3, 4, 5, 6],
+    }
 }
 
 /// The robot a dataset describes: its `sensor.yaml` files (wheel geometry and
@@ -228,11 +255,16 @@ pub(crate) fn estimator_config(
         config.filter = config.filter.with_imu_rate(hz);
     }
     let wheel_type_name = wheel_meta(ds).map_or("", |m| m.wheel_type.as_str());
-    config.surface = match &ds.seg {
-        Some((m, _)) if options.surface_model => Some(surface_config(
+    config.surface = match (&ds.seg, &ds.cam1) {
+        (Some((m, _)), _) if options.surface_model => Some(surface_config(
             m,
             wheel_type_name,
             &sensor_yaml(root, "seg0"),
+        )?),
+        (None, Some((c, _))) if options.surface_model => Some(surface_config(
+            &model_map_meta(c),
+            wheel_type_name,
+            &sensor_yaml(root, "cam1"),
         )?),
         _ => None,
     };

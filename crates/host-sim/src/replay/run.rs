@@ -16,11 +16,13 @@ use crate::tum::{TumPose, truth_poses};
 use serde_json::{Value, json};
 use std::path::Path;
 use traction::ego_ekf::events::JoltEvent;
+use traction::ego_ekf::surface::FloorModel;
 use traction::estimator::{Estimator, Processed};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
 use traction::vslam_core::geometry::{Quat, Vec3};
 use traction::vslam_core::image::LabelView;
+use traction::vslam_core::segment::Segmenter;
 use traction::vslam_core::sensors::{RawWheelRates, WheelTicks};
 use traction::vslam_core::{PerStream, Reject, StreamCounts, Timestamp};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
@@ -67,6 +69,7 @@ enum Next {
     Failed(usize),
     Camera(usize),
     Labels(usize),
+    Segment(usize),
 }
 
 /// The camera path's memory, borrowed by the estimator.
@@ -171,6 +174,14 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
                 .enumerate()
                 .map(|(i, e)| (e.t, 2, Next::Labels(i))),
         );
+    } else if let Some((_, frames)) = &ds.cam1 {
+        // No maps in the log: the reference model labels the forward frames.
+        items.extend(
+            frames
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 2, Next::Segment(i))),
+        );
     }
     items.sort_by_key(|(t, k, _)| (*t, *k));
     items
@@ -189,6 +200,8 @@ pub(super) struct Collected {
     pub vslam: Vec<TumPose>,
     /// One report entry per segmentation map.
     pub surfaces: Vec<Value>,
+    /// The model that labels `cam1` frames when the log has no maps.
+    pub segmenter: FloorModel,
     /// Camera frames refused, with the reason.
     pub camera_rejections: Vec<Value>,
     /// Frames given to the camera path (the first of a run is no pair, so
@@ -318,7 +331,38 @@ impl Collected {
         };
         let labels = LabelView::new(&img.data, img.width, img.height, img.width)
             .map_err(|e| CliError::file(path, e.to_string()))?;
-        let outcome = est.process_segmentation(t, &labels);
+        self.use_labels(est, t, &labels);
+        Ok(())
+    }
+
+    /// Forward frame `k` of the dataset (`cam1`), labelled by the reference
+    /// floor model ([`FloorModel`]) and used as a segmentation map.
+    fn segment(
+        &mut self,
+        est: &mut Estimator<'_>,
+        ds: &Dataset,
+        t: Timestamp,
+        k: usize,
+    ) -> Result<(), CliError> {
+        self.drain_until(est, t);
+        let Some((img, path)) = image(ds.cam1.as_ref().map(|(_, v)| v.as_slice()), k)? else {
+            return Ok(());
+        };
+        let view = img
+            .view()
+            .map_err(|e| CliError::file(path, e.to_string()))?;
+        let mut map = vec![0u8; img.data.len()];
+        let labels = self
+            .segmenter
+            .segment(&view, &mut map)
+            .map_err(|e| CliError::file(path, e.to_string()))?;
+        self.use_labels(est, t, &labels);
+        Ok(())
+    }
+
+    /// One label map into the estimator, and its surface entry.
+    fn use_labels(&mut self, est: &mut Estimator<'_>, t: Timestamp, labels: &LabelView<'_>) {
+        let outcome = est.process_segmentation(t, labels);
         self.log((Stream::Segmentation, t, outcome_name(&outcome)));
         let state = est.surface().map(|s| s.state_at(t));
         let grip = est.surface().map(|s| s.grip_params(t));
@@ -329,7 +373,6 @@ impl Collected {
             "grip": grip.map(|g| g.grip()),
             "forward_std": grip.map(|g| g.forward_std()),
         }));
-        Ok(())
     }
 
     /// One item of the schedule.
@@ -354,6 +397,7 @@ impl Collected {
             }
             Next::Camera(k) => self.camera(est, ds, t, *k)?,
             Next::Labels(k) => self.labels(est, ds, t, *k)?,
+            Next::Segment(k) => self.segment(est, ds, t, *k)?,
         }
         Ok(())
     }

@@ -1,5 +1,7 @@
 //! The simulated world, robot and sensors of `host-sim simulate`.
 pub mod drivers;
+pub mod floors;
+pub mod forward;
 pub mod motion;
 pub mod preset;
 pub mod render;

@@ -49,6 +49,19 @@ impl Camera {
         }
     }
 
+    /// The forward image camera `cam1` the segmentation model reads: the
+    /// segmentation camera's pose and field of view at twice its resolution
+    /// (160x120), so a model's half-resolution map has the geometry of `seg0`.
+    pub fn forward_image() -> Self {
+        let seg = Camera::forward_segmentation();
+        let [fu, fv, cu, cv] = seg.intrinsics;
+        Camera {
+            resolution: [2 * seg.resolution[0], 2 * seg.resolution[1]],
+            intrinsics: [2.0 * fu, 2.0 * fv, 2.0 * cu + 0.5, 2.0 * cv + 0.5],
+            ..seg
+        }
+    }
+
     /// `T_BS` row-major, as in `sensor.yaml`.
     pub fn t_bs_matrix(&self) -> [f32; 16] {
         let r = self.r_bs;
@@ -61,7 +74,7 @@ impl Camera {
     }
 
     /// World position of the camera centre and the world direction of pixel `(u, v)`.
-    fn ray(&self, s: &TruthStep, u: f64, v: f64) -> ([f64; 3], [f64; 3]) {
+    pub(crate) fn ray(&self, s: &TruthStep, u: f64, v: f64) -> ([f64; 3], [f64; 3]) {
         let [fu, fv, cu, cv] = self.intrinsics;
         let dc = [(u - cu) / fu, (v - cv) / fv, 1.0];
         let r = self.r_bs;
@@ -78,6 +91,7 @@ impl Camera {
 }
 
 /// A grayscale texture tiled by mirroring, so it has no seams.
+#[derive(Clone)]
 pub struct Texture {
     img: GrayImage,
 }
@@ -85,7 +99,12 @@ pub struct Texture {
 impl Texture {
     /// The bundled ceiling texture (CC0 gravel photograph, see `data/images/README.md`).
     pub fn ceiling() -> Self {
-        let bytes: &[u8] = include_bytes!("../../../../data/images/gravel.png");
+        Texture::from_png(include_bytes!("../../../../data/images/gravel.png"))
+    }
+
+    /// A texture from PNG bytes (converted to gray); a 1x1 mid-gray texture
+    /// if they do not decode.
+    pub fn from_png(bytes: &[u8]) -> Self {
         let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
         dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
         let img = dec

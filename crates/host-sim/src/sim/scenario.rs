@@ -1,6 +1,8 @@
 //! Named scenarios and the generation of a whole ASL dataset from one.
 
 use super::drivers::{flow_through_driver_with, wheels_through_driver_with};
+use super::floors::FloorLook;
+use super::forward::{Scene, render_forward};
 use super::motion::{Robot, TruthStep, integrate};
 use super::render::{Camera, Texture, render_ceiling, render_labels};
 use super::script::{Episode, EpisodeKind, Script};
@@ -40,6 +42,9 @@ pub struct Scenario {
     pub camera: Camera,
     /// Forward segmentation camera.
     pub segmentation: Camera,
+    /// Forward image camera (`cam1`): the segmentation camera's view at
+    /// twice its resolution, at its rate.
+    pub forward: Camera,
     /// Wheel encoder rate, Hz.
     pub wheel_rate_hz: f64,
     /// Stuck and lifted faults pause the drive where they start and it goes
@@ -67,6 +72,7 @@ impl Scenario {
             flow: FlowModel::paa5100(),
             camera: Camera::ceiling(),
             segmentation: Camera::forward_segmentation(),
+            forward: Camera::forward_image(),
             wheel_rate_hz: 50.0,
             pauses_keep_path: false,
         };
@@ -227,13 +233,24 @@ pub fn dataset_of(sc: &Scenario) -> Dataset {
             },
             Vec::new(),
         )),
+        cam1: Some((
+            CameraMeta {
+                rate_hz: sc.forward.rate_hz,
+                t_bs: sc.forward.t_bs_matrix(),
+                resolution: to_u32(sc.forward.resolution),
+                intrinsics: sc.forward.intrinsics,
+                distortion_model: "radtan".into(),
+                distortion_coefficients: vec![0.0; 4],
+            },
+            Vec::new(),
+        )),
         groundtruth: None,
         wheel_rates: None,
         labels: None,
     }
 }
 
-/// Simulates `sc` with `seed`, writing images under `root/mav0/{cam0,seg0}/data/`;
+/// Simulates `sc` with `seed`, writing images under `root/mav0/{cam0,seg0,cam1}/data/`;
 /// returns the dataset (also to be written with `asl::write_dataset`) and the truth.
 /// Shows no progress.
 pub fn generate(
@@ -317,7 +334,8 @@ pub fn generate_with(
 
     let cam_dir = root.join("mav0/cam0/data");
     let seg_dir = root.join("mav0/seg0/data");
-    for d in [&cam_dir, &seg_dir] {
+    let fwd_dir = root.join("mav0/cam1/data");
+    for d in [&cam_dir, &seg_dir, &fwd_dir] {
         std::fs::create_dir_all(d).map_err(|e| CliError::file(d, format!("cannot create: {e}")))?;
     }
     let tex = Texture::ceiling();
@@ -325,7 +343,8 @@ pub fn generate_with(
     let mut labels = Vec::new();
     let every = |hz: f64| ((1e9 / hz) as u64 / super::motion::TRUTH_STEP_NS).max(1) as usize;
     let images = truth.len().div_ceil(every(sc.camera.rate_hz))
-        + truth.len().div_ceil(every(sc.segmentation.rate_hz));
+        + truth.len().div_ceil(every(sc.segmentation.rate_hz))
+        + truth.len().div_ceil(every(sc.forward.rate_hz));
     let rendering = progress.bar("rendering", images as u64, "images");
     for s in truth.iter().step_by(every(sc.camera.rate_hz)) {
         let path = cam_dir.join(format!("{}.png", s.t_ns));
@@ -390,6 +409,22 @@ pub fn generate_with(
             path,
         });
     }
+    let look = FloorLook::world();
+    let scene = Scene {
+        world: &sc.world,
+        look: &look,
+        wall: &tex,
+    };
+    let mut forward_frames = Vec::new();
+    for s in truth.iter().step_by(every(sc.forward.rate_hz)) {
+        let path = fwd_dir.join(format!("{}.png", s.t_ns));
+        save_gray(&path, &render_forward(&scene, &sc.forward, s))?;
+        rendering.inc(1);
+        forward_frames.push(ImageEntry {
+            t: Timestamp(s.t_ns),
+            path,
+        });
+    }
     rendering.finish_and_clear();
 
     let mut ds = dataset_of(sc);
@@ -407,6 +442,9 @@ pub fn generate_with(
     }
     if let Some((_, v)) = ds.seg.as_mut() {
         *v = labels;
+    }
+    if let Some((_, v)) = ds.cam1.as_mut() {
+        *v = forward_frames;
     }
     ds.groundtruth = Some(groundtruth(&truth, &biases, every(sc.imu.rate_hz)));
     Ok((ds, truth, faults))
@@ -430,6 +468,7 @@ mod tests {
         assert_eq!(back.wheel.as_ref().map(|x| x.1.len()), Some(101));
         assert_eq!(back.cam.as_ref().map(|x| x.1.len()), Some(21));
         assert_eq!(back.seg.as_ref().map(|x| x.1.len()), Some(5));
+        assert_eq!(back.cam1.as_ref().map(|x| x.1.len()), Some(5));
         assert!(
             back.flow == ds.flow,
             "flow stream differs after the round trip"
@@ -450,9 +489,10 @@ mod tests {
         sc.script.duration = 2.0;
         let progress = Progress::hidden();
         let (ds, _, _) = generate_with(&sc, 7, &dir, &FaultPlan::none(), &progress).unwrap();
-        let images =
-            ds.cam.as_ref().map_or(0, |x| x.1.len()) + ds.seg.as_ref().map_or(0, |x| x.1.len());
-        assert_eq!(images, 26);
+        let images = ds.cam.as_ref().map_or(0, |x| x.1.len())
+            + ds.seg.as_ref().map_or(0, |x| x.1.len())
+            + ds.cam1.as_ref().map_or(0, |x| x.1.len());
+        assert_eq!(images, 31);
         let bars: Vec<_> = progress
             .bars()
             .iter()
