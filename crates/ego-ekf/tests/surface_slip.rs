@@ -170,3 +170,52 @@ fn configurations_are_checked() {
     );
     assert!(SlipConfig::new(0.0, 0.05, 0.5, 0.2).is_ok());
 }
+
+#[test]
+fn learned_slip_round_trips_and_corrupt_records_are_refused() {
+    use ego_ekf::surface::{RecordError, SLIP_RECORD_LEN};
+    let mut l = SlipLearner::new(SlipConfig::default());
+    drive(&mut l, SurfaceKind::Carpet, 0.0566, 2000);
+    let bytes = l.to_bytes(W);
+    assert_eq!(bytes.len(), SLIP_RECORD_LEN);
+    assert_eq!(&bytes[..4], b"TSLP");
+    let fresh = SlipLearner::new(SlipConfig::default());
+    let mut r = fresh;
+    r.restore(&bytes, W).unwrap();
+    for k in SurfaceKind::ALL {
+        assert_eq!(r.stats(k), l.stats(k), "{k}");
+    }
+    assert!(r.stats(SurfaceKind::Carpet).offset > 0.01);
+    // Every flipped bit is caught; the learner stays as it was.
+    for i in 0..bytes.len() {
+        for bit in 0..8 {
+            let mut bad = bytes;
+            bad[i] ^= 1 << bit;
+            let mut r = fresh;
+            let err = r.restore(&bad, W).unwrap_err();
+            assert!(
+                matches!(err, RecordError::Checksum | RecordError::Magic),
+                "{i} {bit}"
+            );
+            assert_eq!(r, fresh);
+        }
+    }
+    let mut r = fresh;
+    assert_eq!(r.restore(&bytes[1..], W), Err(RecordError::Length));
+    assert_eq!(
+        r.restore(&bytes, WheelType::Omni),
+        Err(RecordError::WheelMismatch)
+    );
+    let reseal = |mut b: [u8; SLIP_RECORD_LEN]| {
+        let crc = crc32fast::hash(&b[..SLIP_RECORD_LEN - 4]);
+        b[SLIP_RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+        b
+    };
+    let mut b = bytes;
+    b[4] = 9;
+    assert_eq!(r.restore(&reseal(b), W), Err(RecordError::Version));
+    let mut b = bytes;
+    b[8..12].copy_from_slice(&f32::NAN.to_le_bytes());
+    assert_eq!(r.restore(&reseal(b), W), Err(RecordError::Value));
+    assert_eq!(r, fresh);
+}

@@ -14,7 +14,8 @@
 //! - [`learning`]: per-floor forward-noise multipliers learned from the NIS,
 //!   exported and restored as a checked record;
 //! - [`slip`]: per-floor expected slip learned from the forward innovation
-//!   on the floors where the wheel radii are held.
+//!   on the floors where the wheel radii are held, exported and restored as
+//!   a checked record of its own.
 //!
 //! [`SurfaceModel`] wires them together for the filter: call
 //! [`SurfaceModel::on_segmentation`] per map (2-5 Hz),
@@ -44,7 +45,7 @@ pub use mix::SurfaceMix;
 pub use segmentation::{
     GroundView, NoSurface, SegmentationConfig, SegmentationConfigError, Segmenter, UpcomingSurface,
 };
-pub use slip::{SlipConfig, SlipConfigError, SlipLearner, SlipStats};
+pub use slip::{SLIP_RECORD_LEN, SlipConfig, SlipConfigError, SlipLearner, SlipStats};
 pub use tracker::{SurfaceState, SurfaceTracker, TrackerConfig, TrackerConfigError};
 
 use core::fmt;
@@ -295,6 +296,17 @@ impl SurfaceModel {
     /// Restores a learned record; on error nothing changes.
     pub fn restore_learned(&mut self, bytes: &[u8]) -> Result<(), RecordError> {
         self.learner.restore(bytes)
+    }
+
+    /// The learned expected slips as a fixed-size record
+    /// ([`slip`](self::slip) module docs).
+    pub fn export_learned_slip(&self) -> [u8; SLIP_RECORD_LEN] {
+        self.slip.to_bytes(self.wheel)
+    }
+
+    /// Restores a learned-slip record; on error nothing changes.
+    pub fn restore_learned_slip(&mut self, bytes: &[u8]) -> Result<(), RecordError> {
+        self.slip.restore(bytes, self.wheel)
     }
 
     /// The wheel type.

@@ -26,14 +26,30 @@
 //! samples (a slip episode, not the floor's steady slip) and samples below
 //! the minimum wheel speed (the ratio is undefined at rest) are refused
 //! and counted.
+//!
+//! What a robot learned is exported as a fixed 52-byte record of its own
+//! (magic `TSLP`, version, wheel type, per floor the offset and the sample
+//! count, CRC-32), next to the noise learner's ([`super::learning`]), and
+//! restored after a restart; corrupt records are refused. A record of its
+//! own: each learner's record restores without the other's, and the noise
+//! record's version 1 stays readable as it is.
 
 use core::fmt;
 
 use vslam_core::{Reject, SampleCounts};
 
 use super::classes::SurfaceKind;
+use super::grip_table::WheelType;
+use super::learning::RecordError;
 use super::mix::SurfaceMix;
 use crate::grip::MAX_SLIP;
+
+/// Length of the exported slip record, bytes.
+pub const SLIP_RECORD_LEN: usize = 8 + 8 * SurfaceKind::COUNT + 4;
+/// First bytes of every slip record.
+pub const SLIP_RECORD_MAGIC: [u8; 4] = *b"TSLP";
+/// Slip record format version written by this code.
+pub const SLIP_RECORD_VERSION: u8 = 1;
 
 /// Why a slip-learning configuration was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -252,5 +268,80 @@ impl SlipLearner {
         } else {
             Err(Reject::LowQuality)
         }
+    }
+
+    /// The learned offsets as a fixed-size record for a robot with `wheel`
+    /// (see the module docs).
+    pub fn to_bytes(&self, wheel: WheelType) -> [u8; SLIP_RECORD_LEN] {
+        let mut out = [0u8; SLIP_RECORD_LEN];
+        let (payload, crc_out) = out.split_at_mut(SLIP_RECORD_LEN - 4);
+        let (head, body) = payload.split_at_mut(8);
+        let [m0, m1, m2, m3] = SLIP_RECORD_MAGIC;
+        head.copy_from_slice(&[
+            m0,
+            m1,
+            m2,
+            m3,
+            SLIP_RECORD_VERSION,
+            wheel as u8,
+            SurfaceKind::COUNT as u8,
+            0,
+        ]);
+        for (chunk, s) in body.chunks_exact_mut(8).zip(self.floors.iter()) {
+            for (dst, v) in chunk.chunks_exact_mut(4).zip([s.offset, s.samples]) {
+                dst.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        let crc = crc32fast::hash(payload);
+        crc_out.copy_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    /// Restores a record written by [`SlipLearner::to_bytes`] for a robot
+    /// with `wheel`. On error the learner is unchanged. Offsets are kept
+    /// as they were learned (the blend clamps the slip into range).
+    pub fn restore(&mut self, bytes: &[u8], wheel: WheelType) -> Result<(), RecordError> {
+        if bytes.len() != SLIP_RECORD_LEN {
+            return Err(RecordError::Length);
+        }
+        let (payload, crc_in) = bytes.split_at(SLIP_RECORD_LEN - 4);
+        let (head, body) = payload.split_at(8);
+        if head.get(..4) != Some(&SLIP_RECORD_MAGIC[..]) {
+            return Err(RecordError::Magic);
+        }
+        let mut crc = [0u8; 4];
+        for (o, b) in crc.iter_mut().zip(crc_in) {
+            *o = *b;
+        }
+        if crc32fast::hash(payload) != u32::from_le_bytes(crc) {
+            return Err(RecordError::Checksum);
+        }
+        if head.get(4) != Some(&SLIP_RECORD_VERSION)
+            || head.get(6) != Some(&(SurfaceKind::COUNT as u8))
+        {
+            return Err(RecordError::Version);
+        }
+        if head.get(5) != Some(&(wheel as u8)) {
+            return Err(RecordError::WheelMismatch);
+        }
+        let mut floors = [SlipStats::default(); SurfaceKind::COUNT];
+        for (chunk, s) in body.chunks_exact(8).zip(floors.iter_mut()) {
+            let mut v = [0.0f32; 2];
+            for (o, b) in v.iter_mut().zip(chunk.chunks_exact(4)) {
+                let mut w = [0u8; 4];
+                for (d, x) in w.iter_mut().zip(b) {
+                    *d = *x;
+                }
+                *o = f32::from_le_bytes(w);
+            }
+            let [offset, samples] = v;
+            let in_range = offset.is_finite() && libm::fabsf(offset) <= MAX_SLIP;
+            if !(in_range && samples.is_finite() && samples >= 0.0) {
+                return Err(RecordError::Value);
+            }
+            *s = SlipStats { offset, samples };
+        }
+        self.floors = floors;
+        Ok(())
     }
 }
