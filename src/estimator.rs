@@ -487,6 +487,7 @@ impl<'b> Estimator<'b> {
                 let fused = self.ekf.fuse_wheel(&step.rates);
                 if let (Ok(inn), Some(s)) = (&fused, self.surface.as_mut()) {
                     let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, inn.gated);
+                    let _ = s.on_wheel_slip(t, inn.forward, inn.speed, inn.gated);
                 }
                 fused
             }

@@ -99,7 +99,8 @@ pub struct AidStatus<const N: usize> {
 }
 
 /// The wheels' status: forward speed (m/s) and differential (the wheels'
-/// speed difference, `r_r w_r - r_l w_l`, m/s).
+/// speed difference, `r_r w_r - r_l w_l`, m/s), both times `1 - s` for the
+/// floor's expected slip `s` ([`crate::grip::GripParams::slip`]).
 pub type WheelStatus = AidStatus<2>;
 /// The optical flow's status: robot-origin horizontal velocity, robot
 /// frame, m/s.

@@ -1,8 +1,9 @@
 //! What the floor means for the wheel measurement.
 //!
 //! The surface model (segmentation map -> ground classes -> grip table) sets
-//! these parameters; the filter's wheel update reads them. Low grip is noise
-//! and a wider gate, never an error.
+//! these parameters; the filter's wheel update reads them. Low grip is noise,
+//! a wider gate and an expected slip in the wheel measurement's mean, never
+//! an error.
 
 use core::fmt;
 
@@ -14,6 +15,8 @@ pub struct GripParams {
     lateral_std: f32,
     forward_gate: f32,
     jolt_threshold: f32,
+    slip: f32,
+    learn_radius: bool,
 }
 
 /// Why grip parameters were refused.
@@ -45,6 +48,8 @@ impl Default for GripParams {
             lateral_std: 0.01,
             forward_gate: 6.63, // chi-square, 1 DOF, 99 %
             jolt_threshold: 2.0,
+            slip: 0.0,
+            learn_radius: true,
         }
     }
 }
@@ -80,7 +85,32 @@ impl GripParams {
             lateral_std,
             forward_gate,
             jolt_threshold,
+            slip: 0.0,
+            learn_radius: true,
         })
+    }
+
+    /// The same parameters with the expected slip `slip`: the fraction of
+    /// the wheels' rolling speed the ground does not take, so the robot's
+    /// expected speed is `(1 - slip)` times the wheels' (seed 004 claim 5:
+    /// the velocity derived from the grip). Values outside `[0, MAX_SLIP]`
+    /// (NaN as 0) are clamped into it.
+    pub fn with_slip(mut self, slip: f32) -> Self {
+        self.slip = if slip.is_nan() {
+            0.0
+        } else {
+            slip.clamp(0.0, MAX_SLIP)
+        };
+        self
+    }
+
+    /// The same parameters with the wheel radii learning (`true`) or held
+    /// (`false`: a Schmidt consider parameter in the wheel update, see
+    /// [`crate::wheel::update`]). On a low-grip floor the wheels' over-count
+    /// is the floor's slip, not the radius.
+    pub fn with_learn_radius(mut self, learn: bool) -> Self {
+        self.learn_radius = learn;
+        self
     }
 
     /// Grip coefficient in (0, 1].
@@ -103,7 +133,19 @@ impl GripParams {
     pub fn jolt_threshold(&self) -> f32 {
         self.jolt_threshold
     }
+    /// Expected slip in `[0, MAX_SLIP]`: the wheels' forward and
+    /// differential speeds are scaled by `1 - slip`. 0 unless set.
+    pub fn slip(&self) -> f32 {
+        self.slip
+    }
+    /// Whether the wheel update may move the wheel radii (true unless set).
+    pub fn learn_radius(&self) -> bool {
+        self.learn_radius
+    }
 }
+
+/// Largest expected slip [`GripParams::with_slip`] accepts.
+pub const MAX_SLIP: f32 = 0.5;
 
 #[cfg(test)]
 mod tests {

@@ -306,6 +306,27 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
     residual: &SVector<f32, M>,
     gate: Option<f32>,
 ) -> Result<UpdateReport, Reject> {
+    fuse_prepared_holding(x, p, w, s, residual, gate, &[])
+}
+
+/// [`fuse_prepared_in_place`] with the error-state entries `hold` treated
+/// as Schmidt consider parameters (Schmidt 1966; Simon, *Optimal State
+/// Estimation*, 2006, sec. 7.5): their gain is zero, so their value and
+/// their own covariance block stay as they were, while the other states'
+/// update and their cross-covariance with the held ones are those of the
+/// full update (with `K_c = 0`, the Joseph form gives `P_ss - W_s W_s^T`
+/// and `P_sc - W_s W_c^T`, the full update's blocks, and `P_cc`
+/// unchanged). The measurement's variance still includes the held states'
+/// uncertainty. With `hold` empty this is [`fuse_prepared_in_place`].
+pub(crate) fn fuse_prepared_holding<const M: usize, const H: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    w: &mut SMatrix<f32, DIM, M>,
+    s: &SMatrix<f32, M, M>,
+    residual: &SVector<f32, M>,
+    gate: Option<f32>,
+    hold: &[usize; H],
+) -> Result<UpdateReport, Reject> {
     let (l, inv_diag) = cholesky(s).ok_or(Reject::Degenerate)?;
     let l = &l;
     // z = L^-1 y: NIS = |z|^2.
@@ -330,6 +351,14 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
     if !whiten_rows(l, &inv_diag, &z, w, p, &mut dx.data.0[0], skip) {
         return Err(Reject::Degenerate);
     }
+    // The held states' own block, restored after the downdate (the reset
+    // `G P G^T` does not touch it: `G` is the identity outside attitude).
+    let held: [[f32; H]; H] = hold.map(|a| hold.map(|b| p.get((a, b)).copied().unwrap_or(0.0)));
+    for &a in hold {
+        if let Some(v) = dx.get_mut(a) {
+            *v = 0.0;
+        }
+    }
     // `P - W W^T`, then the reset `G P G^T` where it matters (see
     // [`reset_needed`]), both on the upper triangle (Cortex-M's downdate
     // writes the lower one too; the mirror overwrites it); the mirror makes
@@ -341,6 +370,13 @@ pub(crate) fn fuse_prepared_in_place<const M: usize>(
         mirror_upper_to_lower(p);
     } else {
         downdate_symmetric_with(p, w, skip);
+    }
+    for (&a, row) in hold.iter().zip(held.iter()) {
+        for (&b, v) in hold.iter().zip(row.iter()) {
+            if let Some(e) = p.get_mut((a, b)) {
+                *e = *v;
+            }
+        }
     }
     x.inject(&dx);
     Ok(UpdateReport { nis })

@@ -9,6 +9,13 @@
 //! - the forward chi-square gate: `base_gate * (1 + gate_gain * (1 - g))`:
 //!   less grip, wider gate, so slip shows up as noise rather than as a rejected
 //!   wheel;
+//! - the expected slip, the fraction of the wheels' rolling speed the ground
+//!   does not take: `slip_gain * (1 - g)` as the prior, plus the floor's
+//!   learned offset ([`super::slip`]); the wheel measurement's *mean*
+//!   depends on the grip, not only its variance;
+//! - whether the wheel update may learn the radii: only when every floor
+//!   under the wheels grips at least `radius_min_grip`; on a low-grip floor
+//!   the wheels' over-count is the floor's slip, and the radii are held;
 //! - the vertical jolt the floor explains:
 //!   `jolt_floor + jolt_sigmas * vibration(floor) * vibration(wheel)`, m/s^2;
 //!   carpet and threshold strips explain larger jolts than wood.
@@ -96,6 +103,11 @@ pub struct GripModel {
     pub jolt_floor: f32,
     /// How many vibration levels a jolt may reach before it is unexplained.
     pub jolt_sigmas: f32,
+    /// Expected slip per unit of lost grip (the prior of
+    /// [`super::slip`]), in `[0, 1]`.
+    pub slip_gain: f32,
+    /// Least grip of a floor on which the wheel radii learn, in `[0, 1]`.
+    pub radius_min_grip: f32,
 }
 
 impl Default for GripModel {
@@ -107,6 +119,8 @@ impl Default for GripModel {
             gate_gain: 2.0,
             jolt_floor: 0.8,
             jolt_sigmas: 3.0,
+            slip_gain: 0.1,
+            radius_min_grip: 0.8,
         }
     }
 }
@@ -121,6 +135,8 @@ impl GripModel {
             && nonneg(self.gate_gain)
             && pos(self.jolt_floor)
             && nonneg(self.jolt_sigmas)
+            && (0.0..=1.0).contains(&self.slip_gain)
+            && (0.0..=1.0).contains(&self.radius_min_grip)
     }
 }
 
@@ -190,6 +206,15 @@ impl GripTable {
         })
     }
 
+    /// The same table with the model `model`. Errors:
+    /// [`GripTableError::Model`] for invalid constants.
+    pub fn with_model(self, model: GripModel) -> Result<Self, GripTableError> {
+        if !model.is_valid() {
+            return Err(GripTableError::Model);
+        }
+        Ok(GripTable { model, ..self })
+    }
+
     /// The model constants.
     pub fn model(&self) -> &GripModel {
         &self.model
@@ -229,56 +254,120 @@ impl GripTable {
         let forward_std = m.base_forward_std / g * mult;
         let gate = m.base_gate * (1.0 + m.gate_gain * (1.0 - g));
         let jolt = m.jolt_floor + m.jolt_sigmas * self.vibration(kind, wheel);
-        GripParams::new(g, forward_std, m.lateral_std, gate, jolt).unwrap_or_default()
+        GripParams::new(g, forward_std, m.lateral_std, gate, jolt)
+            .map(|p| {
+                p.with_slip(self.slip_prior(kind, wheel))
+                    .with_learn_radius(!self.holds_radius(kind, wheel))
+            })
+            .unwrap_or_default()
+    }
+
+    /// The prior expected slip of a floor: `slip_gain * (1 - grip)`.
+    pub fn slip_prior(&self, kind: SurfaceKind, wheel: WheelType) -> f32 {
+        self.model.slip_gain * (1.0 - self.grip(kind, wheel))
+    }
+
+    /// The prior expected slips of every floor ([`SurfaceKind`] order).
+    pub fn slip_priors(&self, wheel: WheelType) -> [f32; SurfaceKind::COUNT] {
+        SurfaceKind::ALL.map(|k| self.slip_prior(k, wheel))
+    }
+
+    /// Whether the wheel radii are held on a floor (its grip is below
+    /// `radius_min_grip`): there its expected slip is learned instead.
+    pub fn holds_radius(&self, kind: SurfaceKind, wheel: WheelType) -> bool {
+        self.grip(kind, wheel) < self.model.radius_min_grip
+    }
+
+    /// The floors whose radii are held ([`SurfaceKind`] order).
+    pub fn held_floors(&self, wheel: WheelType) -> [bool; SurfaceKind::COUNT] {
+        SurfaceKind::ALL.map(|k| self.holds_radius(k, wheel))
     }
 
     /// Grip parameters of a blend of floors: every field is the
-    /// fraction-weighted mean of the floors' fields. `multipliers` are the
-    /// learned forward-noise multipliers per floor ([`SurfaceKind`] order).
+    /// fraction-weighted mean of the floors' fields (the expected slip
+    /// with the priors). `multipliers` are the learned forward-noise
+    /// multipliers per floor ([`SurfaceKind`] order).
     pub fn blended(
         &self,
         mix: &SurfaceMix,
         wheel: WheelType,
         multipliers: &[f32; SurfaceKind::COUNT],
     ) -> GripParams {
-        let mut acc = [0.0f32; 5];
+        self.blended_learned(mix, wheel, multipliers, &[0.0; SurfaceKind::COUNT])
+    }
+
+    /// [`GripTable::blended`] with the learned slip offsets `slip_offsets`
+    /// added to the floors' priors ([`SurfaceKind`] order; non-finite
+    /// offsets count as 0). The radii learn only when no held floor
+    /// ([`GripTable::holds_radius`]) covers [`HOLD_MIN_FRACTION`] of the
+    /// ground or more.
+    pub fn blended_learned(
+        &self,
+        mix: &SurfaceMix,
+        wheel: WheelType,
+        multipliers: &[f32; SurfaceKind::COUNT],
+        slip_offsets: &[f32; SurfaceKind::COUNT],
+    ) -> GripParams {
+        let mut acc = [0.0f32; FIELDS];
+        let mut learn_radius = true;
         for (kind, f) in mix.iter() {
             let mult = multipliers.get(kind.index()).copied().unwrap_or(1.0);
+            let offset = slip_offsets.get(kind.index()).copied().unwrap_or(0.0);
+            let offset = if offset.is_finite() { offset } else { 0.0 };
             let p = self.params(kind, wheel, mult);
+            let p = p.with_slip(p.slip() + offset);
+            learn_radius &= p.learn_radius() || f < HOLD_MIN_FRACTION;
             for (a, v) in acc.iter_mut().zip(fields(&p).iter()) {
                 *a += f * v;
             }
         }
-        from_fields(&acc).unwrap_or_else(|| self.params(mix.dominant(), wheel, 1.0))
+        from_fields(&acc)
+            .map(|p| p.with_learn_radius(learn_radius))
+            .unwrap_or_else(|| self.params(mix.dominant(), wheel, 1.0))
     }
 }
 
+/// Smallest fraction of the ground a held floor must cover to hold the
+/// radii (a sliver at the edge of the label map does not).
+pub const HOLD_MIN_FRACTION: f32 = 0.05;
+
+/// How many blended fields [`fields`] has.
+const FIELDS: usize = 6;
+
 /// The fields of grip parameters as an array (grip, forward std, lateral std,
-/// gate, jolt threshold).
-fn fields(p: &GripParams) -> [f32; 5] {
+/// gate, jolt threshold, expected slip).
+fn fields(p: &GripParams) -> [f32; FIELDS] {
     [
         p.grip(),
         p.forward_std(),
         p.lateral_std(),
         p.forward_gate(),
         p.jolt_threshold(),
+        p.slip(),
     ]
 }
 
-/// Grip parameters from fields, grip clamped into (0, 1] against rounding.
-fn from_fields(v: &[f32; 5]) -> Option<GripParams> {
-    let [g, fs, ls, gate, jolt] = *v;
-    GripParams::new(g.min(1.0), fs, ls, gate, jolt).ok()
+/// Grip parameters from fields, grip clamped into (0, 1] against rounding
+/// (radii learning: set by the caller).
+fn from_fields(v: &[f32; FIELDS]) -> Option<GripParams> {
+    let [g, fs, ls, gate, jolt, slip] = *v;
+    GripParams::new(g.min(1.0), fs, ls, gate, jolt)
+        .ok()
+        .map(|p| p.with_slip(slip))
 }
 
 /// `(1 - w) * a + w * b`, field by field, `w` clamped to `[0, 1]` (NaN -> 0).
-/// A convex blend of valid parameters is valid.
+/// A convex blend of valid parameters is valid. The radii learn when both
+/// ends let them (or the end with the whole weight does).
 pub fn lerp_params(a: &GripParams, b: &GripParams, w: f32) -> GripParams {
     let w = if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) };
     let (fa, fb) = (fields(a), fields(b));
-    let mut out = [0.0f32; 5];
+    let mut out = [0.0f32; FIELDS];
     for ((o, x), y) in out.iter_mut().zip(fa.iter()).zip(fb.iter()) {
         *o = (1.0 - w) * x + w * y;
     }
-    from_fields(&out).unwrap_or(*a)
+    let learn = (a.learn_radius() || w >= 1.0) && (b.learn_radius() || w <= 0.0);
+    from_fields(&out)
+        .map(|p| p.with_learn_radius(learn))
+        .unwrap_or(*a)
 }

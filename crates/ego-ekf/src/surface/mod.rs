@@ -12,12 +12,16 @@
 //!   hand-over onto an anticipated floor;
 //! - [`jolt_context`]: what the floor explains for the jolt monitor;
 //! - [`learning`]: per-floor forward-noise multipliers learned from the NIS,
-//!   exported and restored as a checked record.
+//!   exported and restored as a checked record;
+//! - [`slip`]: per-floor expected slip learned from the forward innovation
+//!   on the floors where the wheel radii are held, exported and restored as
+//!   a checked record of its own.
 //!
 //! [`SurfaceModel`] wires them together for the filter: call
 //! [`SurfaceModel::on_segmentation`] per map (2-5 Hz),
 //! [`SurfaceModel::grip_params`] per wheel update (and
-//! [`SurfaceModel::on_wheel_innovation`] after it), and
+//! [`SurfaceModel::on_wheel_innovation`] and [`SurfaceModel::on_wheel_slip`]
+//! after it), and
 //! [`SurfaceModel::jolt_context`] per IMU step for [`crate::events`].
 
 pub mod anticipation;
@@ -28,6 +32,7 @@ pub mod jolt_context;
 pub mod learning;
 pub mod mix;
 pub mod segmentation;
+pub mod slip;
 pub mod tracker;
 
 pub use anticipation::{Anticipation, CameraError, GroundCamera};
@@ -42,6 +47,7 @@ pub use mix::SurfaceMix;
 pub use segmentation::{
     GroundView, NoSurface, SegmentationConfig, SegmentationConfigError, Segmenter, UpcomingSurface,
 };
+pub use slip::{SLIP_RECORD_LEN, SlipConfig, SlipConfigError, SlipLearner, SlipStats};
 pub use tracker::{SurfaceState, SurfaceTracker, TrackerConfig, TrackerConfigError};
 
 use core::fmt;
@@ -68,6 +74,8 @@ pub struct SurfaceConfig {
     pub camera: GroundCamera,
     /// How the forward noise is learned.
     pub learning: LearningConfig,
+    /// How the expected slip is learned.
+    pub slip: SlipConfig,
     /// The conservative parameters used before any map and when stale.
     pub fallback: GripParams,
 }
@@ -89,6 +97,7 @@ impl SurfaceConfig {
             tracker: TrackerConfig::default(),
             camera: GroundCamera::default(),
             learning: LearningConfig::default(),
+            slip: SlipConfig::default(),
             fallback: SurfaceConfig::conservative_params(),
         }
     }
@@ -151,6 +160,7 @@ pub struct SurfaceModel {
     table: GripTable,
     tracker: SurfaceTracker,
     learner: NoiseLearner,
+    slip: SlipLearner,
     fallback: GripParams,
 }
 
@@ -163,6 +173,7 @@ impl SurfaceModel {
             table: config.table,
             tracker: SurfaceTracker::new(config.tracker, config.camera),
             learner: NoiseLearner::new(config.learning, config.wheel),
+            slip: SlipLearner::new(config.slip),
             fallback: config.fallback,
         }
     }
@@ -202,9 +213,12 @@ impl SurfaceModel {
         let Some(mix) = state.mix else {
             return self.fallback;
         };
-        let own = self
-            .table
-            .blended(&mix, self.wheel, &self.learner.multipliers());
+        let own = self.table.blended_learned(
+            &mix,
+            self.wheel,
+            &self.learner.multipliers(),
+            &self.slip.offsets(),
+        );
         lerp_params(&own, &self.fallback, state.fallback_weight)
     }
 
@@ -225,6 +239,37 @@ impl SurfaceModel {
             }
             _ => Err(Reject::NotReady),
         }
+    }
+
+    /// Learns the floor's expected slip from one forward wheel innovation
+    /// `forward` (m/s) of a sample seen at `t` whose wheels rolled at
+    /// `speed` (m/s; see [`SlipLearner::observe`]). Refused with
+    /// [`Reject::NotReady`] while the floor is unknown or stale.
+    pub fn on_wheel_slip(
+        &mut self,
+        t: Timestamp,
+        forward: f32,
+        speed: f32,
+        gated: bool,
+    ) -> Result<(), Reject> {
+        let state = self.tracker.state_at(t);
+        match state.mix {
+            Some(mix) if !state.is_stale() => self.slip.observe(
+                &mix,
+                forward,
+                speed,
+                gated,
+                &self.table.slip_priors(self.wheel),
+                &self.table.held_floors(self.wheel),
+            ),
+            _ => Err(Reject::NotReady),
+        }
+    }
+
+    /// The expected slip of a floor: the grip table's prior plus what was
+    /// learned.
+    pub fn expected_slip(&self, kind: SurfaceKind) -> f32 {
+        self.table.slip_prior(kind, self.wheel) + self.slip.stats(kind).offset
     }
 
     /// What the floor explains at `t`, for the jolt detector.
@@ -255,6 +300,17 @@ impl SurfaceModel {
         self.learner.restore(bytes)
     }
 
+    /// The learned expected slips as a fixed-size record
+    /// ([`slip`](self::slip) module docs).
+    pub fn export_learned_slip(&self) -> [u8; SLIP_RECORD_LEN] {
+        self.slip.to_bytes(self.wheel)
+    }
+
+    /// Restores a learned-slip record; on error nothing changes.
+    pub fn restore_learned_slip(&mut self, bytes: &[u8]) -> Result<(), RecordError> {
+        self.slip.restore(bytes, self.wheel)
+    }
+
     /// The wheel type.
     pub fn wheel(&self) -> WheelType {
         self.wheel
@@ -274,5 +330,9 @@ impl SurfaceModel {
     /// The learner.
     pub fn learner(&self) -> &NoiseLearner {
         &self.learner
+    }
+    /// The slip learner.
+    pub fn slip_learner(&self) -> &SlipLearner {
+        &self.slip
     }
 }

@@ -43,7 +43,9 @@ pub struct WheelInnovation {
     pub forward_var: f32,
     /// Whether the forward rows failed the grip's gate (wheels slipped).
     pub gated: bool,
-    /// The wheels' measured forward speed `(r_l w_l + r_r w_r) / 2`, m/s.
+    /// The wheels' rolling forward speed `(r_l w_l + r_r w_r) / 2`, m/s
+    /// (before the floor's expected slip; the sample's [`WheelStatus`]
+    /// holds the speed after it).
     pub speed: f32,
     /// What the filter decided when this sample completed a run of gated
     /// samples (see [`crate::recovery`]); `None` otherwise.
@@ -144,6 +146,10 @@ impl WheelFusion {
             grip.forward_gate(),
             grip.jolt_threshold(),
         )
+        .map(|g| {
+            g.with_slip(grip.slip())
+                .with_learn_radius(grip.learn_radius())
+        })
         .unwrap_or(*grip);
         let grip = &inflated;
         let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
@@ -226,8 +232,11 @@ impl WheelFusion {
             speed,
             recovery: None,
         };
+        // What the wheels say the robot does on this floor: their speeds
+        // times `1 - slip` (the expected slip, see `wheel::model`).
+        let keep = 1.0 - grip.slip();
         let gated_rows = GatedRows {
-            observation: [speed, differential],
+            observation: [keep * speed, keep * differential],
             observation_var: [noise_fwd, noise_diff],
             update: u,
         };

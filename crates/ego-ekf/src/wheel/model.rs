@@ -21,6 +21,14 @@
 //! the measured ones (see the code): the measured ones make the radius an
 //! errors-in-variables regression, biased low.
 //!
+//! The floor's expected slip `s` (seed 004 claim 5: the velocity derived
+//! from the grip, [`GripParams::slip`]) scales the wheels' speeds in rows 0
+//! and 1: the robot is expected at `(1 - s)` times what the wheels roll.
+//! Their radius columns need no factor: evaluated at the predicted wheel
+//! rates (which carry `1 / (1 - s)`), the factor cancels. On a floor where
+//! the radii are held ([`GripParams::learn_radius`] false), the update
+//! treats them as Schmidt consider parameters ([`crate::wheel::update`]).
+//!
 //! With per-wheel forward noise `s_f`, rows 0 and 1 have variances
 //! `s_f^2 / 2` and `2 s_f^2` and are uncorrelated; rows 2 and 3 use the
 //! grip's lateral noise.
@@ -106,6 +114,8 @@ pub struct WheelRows {
     pub noise: [f32; 4],
     /// The factors of the mid-point rows (for [`WheelRows::p_ht`]).
     mid: MidFactors,
+    /// Whether the update holds the radii (see [`WheelRows::holds_radius`]).
+    hold_radius: bool,
 }
 
 /// The mid-point rows (forward, lateral, vertical) of `H` are `R_rb` times
@@ -124,6 +134,12 @@ struct MidFactors {
 }
 
 impl WheelRows {
+    /// Whether the update holds the wheel radii as consider parameters
+    /// (the floor's grip is too low for its over-count to be the radius).
+    pub fn holds_radius(&self) -> bool {
+        self.hold_radius
+    }
+
     /// Whether residual, Jacobian and noise are finite: the sum of every
     /// value times zero is zero for finite values and NaN as soon as one is
     /// infinite or NaN (no overflow, whatever the magnitudes; one
@@ -369,9 +385,12 @@ pub fn wheel_rows(
     let (rl, rr) = (x.radius_left, x.radius_right);
 
     let (vl, vr) = (rim(rl, wl), rim(rr, wr));
+    // The floor's expected slip: the ground takes `1 - s` of the wheels'
+    // speed (exactly the wheels' speed when `s` is 0).
+    let keep = 1.0 - grip.slip();
     let h_val = SVector::<f32, 4>::new(
-        w_mid.x - mid_axle(vl, vr),
-        w_diff.x - differential(vl, vr),
+        w_mid.x - keep * mid_axle(vl, vr),
+        w_diff.x - keep * differential(vl, vr),
         w_mid.y,
         w_mid.z,
     );
@@ -406,6 +425,7 @@ pub fn wheel_rows(
             half_w: gyro * 0.5,
             u_mid,
         },
+        hold_radius: !grip.learn_radius(),
     };
     let h = &mut out.h;
     let d_c_x = d_c.row(0);

@@ -15,17 +15,26 @@
 //! The gate: the forward and the differential rows are each tested with the
 //! grip's 1-DOF chi-square gate on their own variance under the prior `P`;
 //! when either fails, only the lateral and vertical rows are fused.
+//!
+//! On a low-grip floor ([`WheelRows::holds_radius`]) the wheel radii are
+//! Schmidt consider parameters: their uncertainty enters the innovation
+//! variance, but their gain is zero and their own covariance block stays
+//! (`crate::update::fuse_prepared_holding`), so a floor's slip that the
+//! expected slip does not yet explain cannot be learned as a smaller wheel.
 
 use nalgebra::SMatrix;
 use vslam_core::Reject;
 
-use crate::state::{Covariance, DIM, NominalState};
-use crate::update::fuse_prepared_in_place;
+use crate::state::{Covariance, DIM, NominalState, RAD_L, RAD_R};
+use crate::update::fuse_prepared_holding;
 use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, WheelRows};
 
 // The constraint rows are adjacent (their `P H^T` columns are taken as a
 // block), and the gated rows come first.
 const _: () = assert!(VERTICAL == LATERAL + 1 && FORWARD == 0 && DIFFERENTIAL == 1);
+
+/// The radii's error-state entries, held on low-grip floors.
+const RADII: [usize; 2] = [RAD_L, RAD_R];
 
 /// What [`update`] did with a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,16 +80,17 @@ pub fn update(
     let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
     if gated {
         let mut pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
-        fuse_prepared_in_place(
-            x,
-            p,
-            &mut pht_c,
-            &s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned(),
-            &rows.residual.fixed_rows::<2>(LATERAL).into_owned(),
-            None,
-        )?;
+        let s_c = s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned();
+        let y_c = rows.residual.fixed_rows::<2>(LATERAL).into_owned();
+        if rows.holds_radius() {
+            fuse_prepared_holding(x, p, &mut pht_c, &s_c, &y_c, None, &RADII)?;
+        } else {
+            fuse_prepared_holding(x, p, &mut pht_c, &s_c, &y_c, None, &[])?;
+        }
+    } else if rows.holds_radius() {
+        fuse_prepared_holding(x, p, &mut pht, &s, &rows.residual, None, &RADII)?;
     } else {
-        fuse_prepared_in_place(x, p, &mut pht, &s, &rows.residual, None)?;
+        fuse_prepared_holding(x, p, &mut pht, &s, &rows.residual, None, &[])?;
     }
     Ok(WheelUpdate {
         forward,

@@ -243,6 +243,11 @@ pub struct ScaleArgs {
     /// says how long it was on.
     #[arg(long, value_enum, value_name = "MODE", default_value = "always")]
     pub flow: FlowArg,
+    /// Without the floor's expected slip in the wheel measurement's mean
+    /// (no slip prior or learning, the wheel radii learning on every floor):
+    /// for comparison with the default.
+    #[arg(long)]
+    pub no_expected_slip: bool,
 }
 
 /// The flow sensor's power, by its command-line name.
@@ -266,6 +271,7 @@ impl ScaleArgs {
                 FlowArg::Always => None,
                 FlowArg::OnDemand => Some(traction::flow_demand::FlowDemandConfig::default()),
             },
+            expected_slip: base.expected_slip && !self.no_expected_slip,
             ..base
         }
     }

@@ -9,7 +9,8 @@ use crate::error::CliError;
 use std::path::{Path, PathBuf};
 use traction::ego_ekf::surface::floor_model::{CELL, CLASS_NAMES};
 use traction::ego_ekf::surface::{
-    ClassConfig, GroundCamera, SurfaceConfig, SurfaceKind, WheelType,
+    ClassConfig, GripModel, GripTable, GroundCamera, SlipConfig, SurfaceConfig, SurfaceKind,
+    WheelType,
 };
 use traction::estimator::EstimatorConfig;
 use traction::frontend::FrontEndConfig;
@@ -45,6 +46,17 @@ fn wheel_type(name: &str) -> WheelType {
         "omni" => WheelType::Omni,
         _ => WheelType::SoftTreaded,
     }
+}
+
+/// `table` without the expected slip: no prior slip on any floor, and the
+/// wheel radii learning on every floor.
+fn without_slip(table: GripTable) -> GripTable {
+    let model = GripModel {
+        slip_gain: 0.0,
+        radius_min_grip: 0.0,
+        ..*table.model()
+    };
+    table.with_model(model).unwrap_or(table)
 }
 
 /// The surface model's configuration from `seg0/sensor.yaml`: the class
@@ -268,6 +280,10 @@ pub(crate) fn estimator_config(
         )?),
         _ => None,
     };
+    if let (Some(surface), false) = (config.surface.as_mut(), options.expected_slip) {
+        surface.table = without_slip(surface.table);
+        surface.slip = SlipConfig::off();
+    }
     if !options.wheel_distrust {
         config.wheel_distrust = None;
     }

@@ -268,6 +268,11 @@ pub struct ReplayOptions {
     /// reach the estimator only while the policy has the sensor on and its
     /// power-up has had time to run; `None` keeps it always on.
     pub flow_demand: Option<traction::flow_demand::FlowDemandConfig>,
+    /// The floor's expected slip in the wheel measurement's mean, learned
+    /// per floor, with the wheel radii held on low-grip floors
+    /// ([`traction::ego_ekf::surface::slip`]); `false` cuts it (no expected
+    /// slip, the radii learn everywhere), for comparison.
+    pub expected_slip: bool,
 }
 
 impl Default for ReplayOptions {
@@ -285,6 +290,7 @@ impl Default for ReplayOptions {
             memory: None,
             wheel_distrust: true,
             flow_demand: None,
+            expected_slip: true,
         }
     }
 }

@@ -85,6 +85,21 @@ fn final_json(est: &Estimator<'_>) -> Value {
         "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
         "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],
         "running_scale": est.scale().running_scale().map(|r| r.scale),
+        "expected_slip": est.surface().map(slip_json),
+    })
+}
+
+/// The surface model's expected slip per floor (prior plus learned) and
+/// the slip learner's tally.
+fn slip_json(s: &traction::ego_ekf::surface::SurfaceModel) -> Value {
+    use traction::ego_ekf::surface::SurfaceKind;
+    let floors: serde_json::Map<String, Value> = SurfaceKind::ALL
+        .iter()
+        .map(|k| (k.name().to_string(), json!(s.expected_slip(*k))))
+        .collect();
+    json!({
+        "floors": floors,
+        "learning": counts_json(s.slip_learner().counts()),
     })
 }
 
