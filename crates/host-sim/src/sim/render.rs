@@ -34,6 +34,29 @@ impl Camera {
         }
     }
 
+    /// The same camera at `width x height` pixels: the focal lengths scaled
+    /// with the width and height, the principal point moved so that pixel
+    /// areas keep their place (`c' = (c + 0.5) s - 0.5`, as 2x2 averaging
+    /// gives at half size); `None` for an empty size.
+    pub fn resized(&self, width: usize, height: usize) -> Option<Self> {
+        let [w0, h0] = self.resolution;
+        if width == 0 || height == 0 || w0 == 0 || h0 == 0 {
+            return None;
+        }
+        let (sx, sy) = (width as f64 / w0 as f64, height as f64 / h0 as f64);
+        let [fu, fv, cu, cv] = self.intrinsics;
+        Some(Camera {
+            resolution: [width, height],
+            intrinsics: [
+                fu * sx,
+                fv * sy,
+                (cu + 0.5) * sx - 0.5,
+                (cv + 0.5) * sy - 0.5,
+            ],
+            ..*self
+        })
+    }
+
     /// The forward camera whose images the segmentation model labels:
     /// 80x60, pitched down 35 degrees, 15 cm ahead of the axle, 8 cm high.
     pub fn forward_segmentation() -> Self {
