@@ -222,6 +222,27 @@ mod tests {
     use super::*;
     use crate::sim::world::Surface;
 
+    #[test]
+    fn a_resized_camera_scales_its_intrinsics_as_2x2_averaging() {
+        let cam = Camera::ceiling();
+        let half = cam.resized(160, 120).expect("a size");
+        assert_eq!(half.resolution, [160, 120]);
+        assert_eq!(half.intrinsics, [100.0, 100.0, 79.5, 59.5]);
+        assert_eq!(
+            (half.r_bs, half.t_bs, half.rate_hz),
+            (cam.r_bs, cam.t_bs, cam.rate_hz)
+        );
+        assert_eq!(cam.resized(320, 240), Some(cam));
+        assert_eq!(cam.resized(0, 120), None);
+        // The same ray through the same point of a pixel at either size.
+        let s = at(0.3, 0.4);
+        let (c0, d0) = cam.ray(&s, 100.0, 60.0);
+        let (c1, d1) = half.ray(&s, 49.75, 29.75);
+        for k in 0..3 {
+            assert!((c0[k] - c1[k]).abs() < 1e-12 && (d0[k] - d1[k]).abs() < 1e-12);
+        }
+    }
+
     fn at(x: f64, yaw: f64) -> TruthStep {
         TruthStep {
             t_ns: 0,
