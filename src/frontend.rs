@@ -48,13 +48,15 @@ use vslam_core::pyramid::{Pyramid, storage_bytes};
 use vslam_core::scale::CameraMotion;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-/// Most features tracked between two frames.
+/// Most features tracked between two frames; [`FrontEndConfig::new`] asks
+/// for fewer below 320x240 ([`features_for_frame`]).
 pub const MAX_FEATURES: usize = 200;
 
 /// Points tracked per call of the tracker (the results live on the stack).
 const TRACK_BATCH: usize = 16;
 
-/// Default of [`FrontEndConfig::redetect_below`].
+/// [`FrontEndConfig::redetect_below`] of [`FrontEndConfig::new`] at 320x240
+/// and above ([`redetect_for_frame`]).
 pub const REDETECT_BELOW: usize = 100;
 
 /// Most consecutive unusable frames (too few corners of their own, and no
@@ -85,6 +87,9 @@ pub struct FrontEndConfig {
     pub levels: usize,
     /// Tracker settings.
     pub lk: LkConfig,
+    /// Most corners detected on a frame (and so features tracked from it),
+    /// `1..=`[`MAX_FEATURES`] (larger values act as [`MAX_FEATURES`]).
+    pub max_features: usize,
     /// Corner detector settings.
     pub corners: CornerConfig,
     /// Robust homography settings.
@@ -98,7 +103,7 @@ pub struct FrontEndConfig {
     /// on the current frame and replace them (unless fewer than `min_tracks`
     /// are found). At `min_tracks` or below, corners are detected only when
     /// a pair fails or keeps fewer than `min_tracks` inliers; above
-    /// [`MAX_FEATURES`], on every frame.
+    /// `max_features`, on every frame.
     pub redetect_below: usize,
     /// Longest accepted gap between frames, nanoseconds.
     pub max_gap_ns: u64,
@@ -107,21 +112,70 @@ pub struct FrontEndConfig {
     pub rotation_only_baseline: f32,
 }
 
+/// The frame area of [`MAX_FEATURES`] and [`REDETECT_BELOW`]: 320x240.
+const FULL_AREA: usize = 320 * 240;
+
+/// `full` scaled with the frame's area below 320x240, at least `floor`
+/// and at most `full`.
+const fn scaled_by_area(full: usize, floor: usize, width: usize, height: usize) -> usize {
+    let area = width.saturating_mul(height);
+    let n = if area >= FULL_AREA {
+        full
+    } else {
+        full.saturating_mul(area) / FULL_AREA
+    };
+    if n < floor { floor } else { n }
+}
+
+/// The corner count of [`FrontEndConfig::new`] for a `width x height`
+/// frame: [`MAX_FEATURES`] (200) at 320x240 and above, scaled with the
+/// frame's area below (50 at 160x120), at least 24: the tracker's work
+/// grows with the features tracked.
+pub const fn features_for_frame(width: usize, height: usize) -> usize {
+    scaled_by_area(MAX_FEATURES, 24, width, height)
+}
+
+/// The re-detection threshold of [`FrontEndConfig::new`] for a `width x
+/// height` frame: [`REDETECT_BELOW`] (100), or 70 % of
+/// [`features_for_frame`] when that is fewer (35 at 160x120).
+pub const fn redetect_for_frame(width: usize, height: usize) -> usize {
+    let share = features_for_frame(width, height).saturating_mul(7) / 10;
+    if share < REDETECT_BELOW {
+        share
+    } else {
+        REDETECT_BELOW
+    }
+}
+
+/// Frames with less than this area use [`SMALL_FRAME_LK_LEVELS`] and
+/// [`SMALL_FRAME_EPSILON`] in [`FrontEndConfig::new`]: half of 320x240.
+const SMALL_FRAME_AREA: usize = FULL_AREA / 2;
+
+/// The tracker's pyramid levels in [`FrontEndConfig::new`] for frames of
+/// less than half the area of 320x240 (3, OpenCV's, otherwise): on the
+/// simulated office and slip runs at 160x120 two levels track as well as
+/// three, and a frame pair costs about a fifth fewer Cortex-M4
+/// instructions (`benches/README.md`, the front end at 160x120).
+pub const SMALL_FRAME_LK_LEVELS: usize = 2;
+
+/// The tracker's level-0 step limit in [`FrontEndConfig::new`] for frames
+/// of less than half the area of 320x240, pixels (OpenCV's 0.01
+/// otherwise): fewer level-0 iterations, with the simulated camera paths at
+/// 160x120 as accurate (`benches/README.md`, the front end at 160x120).
+pub const SMALL_FRAME_EPSILON: f32 = 0.03;
+
 /// The tracker window of [`FrontEndConfig::new`] for a `width x height`
 /// frame: the default 21x21 ([`LkConfig::default`], OpenCV's) at 320x240
-/// and above, scaled with the frame below, so that the window covers the
-/// same part of the ceiling (11x11 at 160x120, whose pixels are 2x2 of
-/// 320x240's), odd, at least 7. The tracker's work per point grows with the
-/// window's area: at 160x120 a 21x21 window costs about 2.6 times the
-/// instructions of an 11x11 one on a Cortex-M4 (`firmware/README.md`).
+/// and above; below, the side scaled with the frame's area (not its side),
+/// odd, at least 7: 7x7 at 160x120, 11x11 at 240x180. A window of a
+/// quarter of the ceiling area at 160x120 fits the tracker's eight lanes
+/// in one chunk (11 columns take two): a 160x120 frame pair costs about
+/// 0.6 times the Cortex-M4 instructions of an 11x11 window with the same
+/// features, with the simulated camera path as accurate
+/// (`benches/README.md`, the front end at 160x120).
 pub const fn window_for_frame(width: usize, height: usize) -> usize {
     const FULL: usize = 21;
-    // The side that limits the scale, in 320x240 units: min(w / 320, h / 240).
-    let scaled = if width.saturating_mul(3) < height.saturating_mul(4) {
-        FULL.saturating_mul(width) / 320
-    } else {
-        FULL.saturating_mul(height) / 240
-    };
+    let scaled = scaled_by_area(FULL, 0, width, height);
     let odd = scaled | 1;
     if odd < 7 {
         7
@@ -136,13 +190,18 @@ impl FrontEndConfig {
     /// Defaults for a `width x height` upward camera: OpenCV's tracker and
     /// corner settings ([`LkConfig::default`], [`CornerConfig::default`]),
     /// with the window of [`window_for_frame`] (and a corner border that
-    /// fits it) and [`COARSE_EPSILON`] at the coarse levels.
+    /// fits it), [`COARSE_EPSILON`] at the coarse levels, the corner count
+    /// and re-detection threshold of [`features_for_frame`] and
+    /// [`redetect_for_frame`], and below half the area of 320x240
+    /// [`SMALL_FRAME_LK_LEVELS`] tracker levels and a level-0 step limit of
+    /// [`SMALL_FRAME_EPSILON`] (the pyramids keep `levels`).
     pub fn new(
         width: usize,
         height: usize,
         intrinsics: PinholeIntrinsics,
         mount: Extrinsics,
     ) -> Self {
+        let small = width.saturating_mul(height) < SMALL_FRAME_AREA;
         FrontEndConfig {
             width,
             height,
@@ -152,16 +211,25 @@ impl FrontEndConfig {
             lk: LkConfig {
                 window: window_for_frame(width, height),
                 coarse_epsilon: Some(COARSE_EPSILON),
-                ..LkConfig::default()
+                ..if small {
+                    LkConfig {
+                        levels: SMALL_FRAME_LK_LEVELS,
+                        epsilon: SMALL_FRAME_EPSILON,
+                        ..LkConfig::default()
+                    }
+                } else {
+                    LkConfig::default()
+                }
             },
             corners: CornerConfig {
                 border: border_for_window(window_for_frame(width, height)),
                 ..CornerConfig::default()
             },
+            max_features: features_for_frame(width, height),
             ransac: RansacParams::default(),
             prior_max_angle_rad: 0.35,
             min_tracks: 12,
-            redetect_below: REDETECT_BELOW,
+            redetect_below: redetect_for_frame(width, height),
             max_gap_ns: 1_000_000_000,
             rotation_only_baseline: 0.01,
         }
@@ -404,9 +472,14 @@ impl<'b> FrontEnd<'b> {
             && reference_fresh
     }
 
-    /// Corners of `image` into `out`, strongest first; 0 when it has none.
+    /// Corners of `image` into `out` (at most
+    /// [`FrontEndConfig::max_features`]), strongest first; 0 when it has none.
     fn corners_of(&mut self, image: &ImageView<'_>, out: &mut [Corner]) -> usize {
         self.detections = self.detections.saturating_add(1);
+        let cap = self.config.max_features.clamp(1, out.len().max(1));
+        let Some(out) = out.get_mut(..cap) else {
+            return 0;
+        };
         detect_corners(
             image,
             &self.config.corners,
@@ -642,15 +715,38 @@ pub fn fit_pairs<const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::window_for_frame;
+    use super::{
+        MAX_FEATURES, REDETECT_BELOW, features_for_frame, redetect_for_frame, window_for_frame,
+    };
 
     #[test]
-    fn the_window_scales_with_the_frame_below_320x240() {
+    fn features_and_redetection_scale_with_the_frame_area_below_320x240() {
+        assert_eq!(features_for_frame(320, 240), MAX_FEATURES);
+        assert_eq!(features_for_frame(1280, 960), MAX_FEATURES);
+        assert_eq!(features_for_frame(160, 120), 50);
+        assert_eq!(features_for_frame(10, 10), 24);
+        assert_eq!(redetect_for_frame(320, 240), REDETECT_BELOW);
+        assert_eq!(redetect_for_frame(160, 120), 35);
+        assert_eq!(redetect_for_frame(0, 0), 16);
+        for (w, h) in [
+            (100, 75),
+            (200, 150),
+            (1, 1),
+            (usize::MAX, 3),
+            (usize::MAX, usize::MAX),
+        ] {
+            let (f, r) = (features_for_frame(w, h), redetect_for_frame(w, h));
+            assert!((24..=MAX_FEATURES).contains(&f), "{w}x{h}: {f}");
+            assert!((16..=REDETECT_BELOW).contains(&r) && r < f, "{w}x{h}: {r}");
+        }
+    }
+
+    #[test]
+    fn the_window_scales_with_the_frame_area_below_320x240() {
         assert_eq!(window_for_frame(320, 240), 21);
         assert_eq!(window_for_frame(640, 480), 21);
-        assert_eq!(window_for_frame(160, 120), 11);
-        // The narrower side decides: 160 wide is half of 320 whatever the height.
-        assert_eq!(window_for_frame(160, 240), 11);
+        assert_eq!(window_for_frame(240, 180), 11);
+        assert_eq!(window_for_frame(160, 120), 7);
         assert_eq!(window_for_frame(320, 120), 11);
         assert_eq!(window_for_frame(80, 60), 7);
         assert_eq!(window_for_frame(0, 0), 7);

@@ -51,6 +51,11 @@ pub struct SimulateArgs {
     /// standing still.
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
+    /// The upward camera's size, `WIDTHxHEIGHT` (default 320x240): the
+    /// frames are rendered at this size with the intrinsics scaled to it
+    /// (e.g. `160x120`, the firmware's frames).
+    #[arg(long, value_name = "WxH", value_parser = parse_size, conflicts_with = "chaos")]
+    pub camera_size: Option<[usize; 2]>,
     /// Chaos: the shuttle drive with faults of every kind drawn at random
     /// with this seed, several at once at times, every invariant checked;
     /// the fault-free run goes to OUT/free, report.json gets a `chaos`
@@ -103,7 +108,12 @@ pub enum PolicyArg {
 
 /// `simulate --drive waypoints`.
 fn run_waypoints_cmd(a: &SimulateArgs) -> Result<(), CliError> {
-    let sc = scenario_for(&a.scenario, None)?;
+    let mut sc = scenario_for(&a.scenario, None)?;
+    if let Some([w, h]) = a.camera_size {
+        sc.camera = sc.camera.resized(w, h).ok_or_else(|| {
+            CliError::Usage(format!("camera size {w}x{h}: expected a size above 0"))
+        })?;
+    }
     let route = match &a.waypoints {
         Some(p) => route::read(p)?,
         None => route::OFFICE_ROUTE.to_vec(),
@@ -145,6 +155,17 @@ fn run_waypoints_cmd(a: &SimulateArgs) -> Result<(), CliError> {
         a.out.display()
     );
     Ok(())
+}
+
+/// `WIDTHxHEIGHT`, both above 0.
+fn parse_size(s: &str) -> Result<[usize; 2], String> {
+    let bad = || format!("`{s}`: expected WIDTHxHEIGHT, e.g. 160x120");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h) = (w.trim().parse::<usize>(), h.trim().parse::<usize>());
+    match (w, h) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 && w <= 4096 && h <= 4096 => Ok([w, h]),
+        _ => Err(bad()),
+    }
 }
 
 /// The scale pipeline's selection method, by its command-line name.
@@ -422,7 +443,12 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
             ))
         };
     }
-    let scenario = scenario_for(&a.scenario, a.duration)?;
+    let mut scenario = scenario_for(&a.scenario, a.duration)?;
+    if let Some([w, h]) = a.camera_size {
+        scenario.camera = scenario.camera.resized(w, h).ok_or_else(|| {
+            CliError::Usage(format!("camera size {w}x{h}: expected a size above 0"))
+        })?;
+    }
     let options = a.scale.options(ReplayOptions::default());
     println!(
         "simulating `{}` (seed {}) into {}",

@@ -34,6 +34,29 @@ impl Camera {
         }
     }
 
+    /// The same camera at `width x height` pixels: the focal lengths scaled
+    /// with the width and height, the principal point moved so that pixel
+    /// areas keep their place (`c' = (c + 0.5) s - 0.5`, as 2x2 averaging
+    /// gives at half size); `None` for an empty size.
+    pub fn resized(&self, width: usize, height: usize) -> Option<Self> {
+        let [w0, h0] = self.resolution;
+        if width == 0 || height == 0 || w0 == 0 || h0 == 0 {
+            return None;
+        }
+        let (sx, sy) = (width as f64 / w0 as f64, height as f64 / h0 as f64);
+        let [fu, fv, cu, cv] = self.intrinsics;
+        Some(Camera {
+            resolution: [width, height],
+            intrinsics: [
+                fu * sx,
+                fv * sy,
+                (cu + 0.5) * sx - 0.5,
+                (cv + 0.5) * sy - 0.5,
+            ],
+            ..*self
+        })
+    }
+
     /// The forward camera whose images the segmentation model labels:
     /// 80x60, pitched down 35 degrees, 15 cm ahead of the axle, 8 cm high.
     pub fn forward_segmentation() -> Self {
@@ -217,6 +240,27 @@ pub fn render_labels(world: &World, cam: &Camera, s: &TruthStep) -> GrayImage {
 mod tests {
     use super::*;
     use crate::sim::world::Surface;
+
+    #[test]
+    fn a_resized_camera_scales_its_intrinsics_as_2x2_averaging() {
+        let cam = Camera::ceiling();
+        let half = cam.resized(160, 120).expect("a size");
+        assert_eq!(half.resolution, [160, 120]);
+        assert_eq!(half.intrinsics, [100.0, 100.0, 79.5, 59.5]);
+        assert_eq!(
+            (half.r_bs, half.t_bs, half.rate_hz),
+            (cam.r_bs, cam.t_bs, cam.rate_hz)
+        );
+        assert_eq!(cam.resized(320, 240), Some(cam));
+        assert_eq!(cam.resized(0, 120), None);
+        // The same ray through the same point of a pixel at either size.
+        let s = at(0.3, 0.4);
+        let (c0, d0) = cam.ray(&s, 100.0, 60.0);
+        let (c1, d1) = half.ray(&s, 49.75, 29.75);
+        for k in 0..3 {
+            assert!((c0[k] - c1[k]).abs() < 1e-12 && (d0[k] - d1[k]).abs() < 1e-12);
+        }
+    }
 
     fn at(x: f64, yaw: f64) -> TruthStep {
         TruthStep {
