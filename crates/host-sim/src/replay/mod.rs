@@ -33,6 +33,10 @@ use traction::vslam_core::{Reject, Timestamp};
 pub struct ReplayOutput {
     /// The estimator's trajectory of B ([`traction::Estimator::estimate`]).
     pub ekf: Vec<TumPose>,
+    /// The estimate's yaw rate, robot frame, rad/s, with each pose of
+    /// [`ReplayOutput::ekf`]: the gyro's rate corrected by the filter's
+    /// bias and scale factor.
+    pub yaw_rate: Vec<f32>,
     /// Camera poses composed with the metric scale, moved to B.
     pub vslam: Vec<TumPose>,
     /// Wheel odometry alone (B's origin, mid-axle on the floor).
@@ -266,6 +270,10 @@ pub struct ReplayOptions {
     /// reach the estimator only while the policy has the sensor on and its
     /// power-up has had time to run; `None` keeps it always on.
     pub flow_demand: Option<traction::flow_demand::FlowDemandConfig>,
+    /// Estimate the gyro's z scale factor
+    /// ([`ImuConfig::estimate_gyro_scale`](traction::ego_ekf::config::ImuConfig::estimate_gyro_scale));
+    /// `false` (the default) leaves the rate only bias-corrected.
+    pub gyro_scale: bool,
 }
 
 impl Default for ReplayOptions {
@@ -283,6 +291,7 @@ impl Default for ReplayOptions {
             memory: None,
             wheel_distrust: true,
             flow_demand: None,
+            gyro_scale: false,
         }
     }
 }
