@@ -92,7 +92,7 @@ fn benches(c: &mut Criterion) {
         0.004,
     );
     let q = process_noise(
-        &FilterConfig::default().imu.noise,
+        &FilterConfig::default().imu,
         &FilterConfig::default().robot,
         0.004,
     );

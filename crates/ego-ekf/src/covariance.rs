@@ -294,6 +294,7 @@ pub fn initial_variances(init: &InitConfig, robot: &RobotPrior) -> ErrorState {
             }
             Prior::AccelBias => init.accel_bias_std,
             Prior::GyroBias => init.gyro_bias_std,
+            Prior::GyroScale => init.gyro_scale_std,
             Prior::Gravity => init.gravity_std,
             Prior::Contact => robot.contact_std,
             Prior::BodyToRobot => robot.rotation_std,

@@ -2,6 +2,7 @@
 //! state, covariance, grip and per-sensor status, and reports the estimate.
 //! Here the steps that change it; its read side (accessors, statuses, counts) is in `filter/read.rs`.
 
+use nalgebra::Matrix3;
 use vslam_core::kinematics::{mid_axle, rim};
 use vslam_core::sensors::{FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
@@ -193,6 +194,7 @@ impl EgoEkf {
             accel_bias: Vec3::zeros(),
             gyro_bias: Vec3::zeros(),
             gravity: Vec3::new(0.0, 0.0, -config.gravity),
+            gyro_scale: 0.0,
             clone_p_wb: Vec3::zeros(),
             clone_q_wb: Quat::identity(),
             p_bl: r.p_bl,
@@ -217,7 +219,8 @@ impl EgoEkf {
                 config.wheel.max_dt_ns,
                 config.wheel.max_age_ns,
                 config.zupt.max_wheel_rate,
-            ),
+            )
+            .with_gyro_scale(config.imu.estimate_gyro_scale),
             flow: FlowFusion::new(
                 config.flow.map_or(1, |f| f.max_dt_ns),
                 config.flow.map_or(1, |f| f.max_age_ns),
@@ -342,7 +345,7 @@ impl EgoEkf {
             return Err(Reject::Duplicate);
         }
         self.last_imu = Some((*sample.gyro(), *sample.accel()));
-        let gyro = sample.gyro() - self.x.gyro_bias;
+        let gyro = self.x.corrected_gyro(sample.gyro());
         let accel = sample.accel() - self.x.accel_bias;
         // The still detector reads only the sample and the wheels' and the
         // flow's latest word, so it runs before the state moves.
@@ -362,8 +365,8 @@ impl EgoEkf {
         );
         self.clone_if_due(still);
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
-        let f = Transition::new(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu.noise, &self.config.robot, dt);
+        let f = self.transition(&r_wb, &accel, &gyro, dt);
+        let q = process_noise(&self.config.imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
 
@@ -420,6 +423,18 @@ impl EgoEkf {
         if still && self.clone != CloneUse::Still {
             clone_pose(&mut self.x, &mut self.p);
             self.clone = CloneUse::Still;
+        }
+    }
+
+    /// The error-state transition of one step from the attitude `r_wb` and
+    /// the corrected samples; the attitude coupled to the gyro's scale
+    /// factor when it is estimated ([`crate::config::ImuConfig::estimate_gyro_scale`]).
+    fn transition(&self, r_wb: &Matrix3<f32>, accel: &Vec3, gyro: &Vec3, dt: f32) -> Transition {
+        let f = Transition::new(r_wb, accel, gyro, dt);
+        if self.config.imu.estimate_gyro_scale {
+            f.with_gyro_scale(&self.x.gyro_scale_jacobian(gyro))
+        } else {
+            f
         }
     }
 

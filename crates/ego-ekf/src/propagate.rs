@@ -10,7 +10,8 @@
 //!
 //! The covariance step exploits the block structure: `F` is identity except
 //! the blocks `F_pv = I dt`, `F_vtheta = -R [a]x dt`, `F_vab = -R dt`,
-//! `F_vg = I dt`, `F_thetatheta = Exp(w dt)^T`, `F_thetawb = -I dt` of the
+//! `F_vg = I dt`, `F_thetatheta = Exp(w dt)^T`, `F_thetawb = -I dt`,
+//! `F_thetak = -e_z w_z / (1 + k) dt` (the gyro's z scale factor) of the
 //! IMU part, and the clone and robot blocks have `F = I`. So `F P F^T` is a
 //! few 3-row operations on `P` followed by the same operations on columns:
 //! the IMU block and the IMU-to-rest cross terms change, the rest-to-rest
@@ -19,10 +20,10 @@
 
 use nalgebra::{Matrix3, Rotation3};
 
-use crate::config::{ImuNoise, RobotPrior};
+use crate::config::{ImuConfig, RobotPrior};
 use crate::covariance::skew;
 use crate::state::{
-    BA, BG, BLOCKS, CLONE, Covariance, DIM, Drive, ErrorState, G, NominalState, P, TH, V, Vec3,
+    BA, BG, BLOCKS, CLONE, Covariance, DIM, Drive, ErrorState, G, KG, NominalState, P, TH, V, Vec3,
 };
 
 /// The non-identity blocks of the discrete error-state transition `F_x`.
@@ -36,6 +37,9 @@ pub struct Transition {
     pub f_vba: Matrix3<f32>,
     /// `dtheta / dtheta = R{(w_m - w_b) dt}^T`.
     pub f_thth: Matrix3<f32>,
+    /// `dtheta / dk = -e_z w_z / (1 + k) dt`, the gyro's z scale-factor
+    /// error (zero unless [`Transition::with_gyro_scale`] sets it).
+    pub f_thk: Vec3,
 }
 
 impl Transition {
@@ -47,10 +51,20 @@ impl Transition {
             f_vth: -(r_wb * skew(accel)) * dt,
             f_vba: -r_wb * dt,
             f_thth: exp_so3(&(gyro * dt)).transpose(),
+            f_thk: Vec3::zeros(),
         }
     }
 
-    /// The full 35x35 `F_x` (for the dense reference and tests).
+    /// The transition with the attitude coupled to the gyro's z scale
+    /// factor: `d` is `d w / d k`
+    /// ([`NominalState::gyro_scale_jacobian`]), the step's column is
+    /// `d dt` (first order, as `F_thetawb = -I dt`).
+    pub fn with_gyro_scale(mut self, d: &Vec3) -> Self {
+        self.f_thk = d * self.dt;
+        self
+    }
+
+    /// The full `F_x` (for the dense reference and tests).
     pub fn dense(&self) -> Covariance {
         let mut f = Covariance::identity();
         let i3 = Matrix3::<f32>::identity();
@@ -60,6 +74,7 @@ impl Transition {
         f.fixed_view_mut::<3, 3>(V, G).copy_from(&(i3 * self.dt));
         f.fixed_view_mut::<3, 3>(TH, TH).copy_from(&self.f_thth);
         f.fixed_view_mut::<3, 3>(TH, BG).copy_from(&(-i3 * self.dt));
+        f.fixed_view_mut::<3, 1>(TH, KG).copy_from(&self.f_thk);
         f
     }
 }
@@ -90,7 +105,8 @@ pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
 /// `A_i = sigma_aw^2 dt`, `Omega_i = sigma_ww^2 dt` (Solà 2017, eq. 271 with
 /// continuous densities), and the robot states' random walks: for each
 /// block of the state table, the density its [`Drive`] names.
-pub fn process_noise(imu: &ImuNoise, robot: &RobotPrior, dt: f32) -> ErrorState {
+pub fn process_noise(imu: &ImuConfig, robot: &RobotPrior, dt: f32) -> ErrorState {
+    let (scale_walk, imu) = (imu.gyro_scale_random_walk, &imu.noise);
     let mut q = ErrorState::zeros();
     for (start, len, drive) in DRIVEN {
         let density = match drive {
@@ -99,6 +115,7 @@ pub fn process_noise(imu: &ImuNoise, robot: &RobotPrior, dt: f32) -> ErrorState 
             Drive::GyroNoise => imu.gyro_density,
             Drive::AccelBiasWalk => imu.accel_random_walk,
             Drive::GyroBiasWalk => imu.gyro_random_walk,
+            Drive::GyroScaleWalk => scale_walk,
             Drive::ContactWalk => robot.contact_random_walk,
             Drive::RotationWalk => robot.rotation_random_walk,
             Drive::RadiusWalk => robot.radius_random_walk,
@@ -149,9 +166,10 @@ pub fn propagate_nominal(x: &mut NominalState, accel: &Vec3, gyro: &Vec3, dt: f3
 }
 
 // The block step below relies on position, velocity and attitude being the
-// first nine error-state components (the state table's first blocks), followed by the accelerometer bias, the
-// gyroscope bias and gravity.
-const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G == 15);
+// first nine error-state components (the state table's first blocks),
+// followed by the accelerometer bias, the gyroscope bias, gravity and the
+// gyroscope's scale factor.
+const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G == 15 && KG == 18);
 
 /// Entry `i` of a covariance column (`0.0` outside; never outside for the
 /// loops below, whose `i` runs over `0..DIM`, so the check compiles away).
@@ -170,7 +188,7 @@ fn at(column: &[f32; DIM], i: usize) -> f32 {
 /// column follow by symmetry (a transposed copy); only the 9x9 block of
 /// those rows and columns needs the row operations `F (P F^T)`, computed on
 /// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
-/// dense 85,000. The result is exactly symmetric if `P` was.
+/// dense 93,000. The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     propagate_blocks::<false>(p, f, q);
 }
@@ -204,7 +222,7 @@ const fn rows_visited(skip_clone: bool) -> usize {
 #[inline(always)]
 fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
     let dt = f.dt;
-    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
+    let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
     {
         let [
             p0,
@@ -225,6 +243,7 @@ fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
             g0,
             g1,
             g2,
+            k0,
             ..,
         ] = &mut p.data.0;
         // Columns of `P F^T`, in the order that reads only old values:
@@ -290,15 +309,16 @@ fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
             let w_rows = rows_of(rows, w0)
                 .iter()
                 .zip(rows_of(rows, w1))
-                .zip(rows_of(rows, w2));
-            for (((c0, c1), c2), ((w0, w1), w2)) in c0
+                .zip(rows_of(rows, w2))
+                .zip(rows_of(rows, k0));
+            for (((c0, c1), c2), (((w0, w1), w2), k)) in c0
                 .iter_mut()
                 .zip(c1.iter_mut())
                 .zip(c2.iter_mut())
                 .zip(w_rows)
             {
                 let w = Vec3::new(*w0, *w1, *w2);
-                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
+                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt + ftk * *k;
                 (*c0, *c1, *c2) = (t.x, t.y, t.z);
             }
         }
@@ -307,11 +327,11 @@ fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
 
 fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let dt = f.dt;
-    let (fvt, fva, ftt) = (&f.f_vth, &f.f_vba, &f.f_thth);
+    let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
     column_passes(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
-    // 0..18 of the new columns (the rows BA, BG, G are final already).
+    // 0..19 of the new columns (the rows BA, BG, G, KG are final already).
     let mut block = [[0.0f32; 9]; 9];
     for (out, col) in block.iter_mut().zip(cols.iter()) {
         let [
@@ -333,6 +353,7 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
             m15,
             m16,
             m17,
+            m18,
             ..,
         ] = *col;
         let t = Vec3::new(m6, m7, m8);
@@ -341,7 +362,7 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
             + fvt * t
             + fva * Vec3::new(m9, m10, m11)
             + Vec3::new(m15, m16, m17) * dt;
-        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt;
+        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt + ftk * m18;
         *out = [
             new_p.x, new_p.y, new_p.z, new_v.x, new_v.y, new_v.z, new_t.x, new_t.y, new_t.z,
         ];
@@ -376,7 +397,7 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
     }
 }
 
-/// The dense reference `P <- F P F^T + Q` (about 85 000 multiply-adds).
+/// The dense reference `P <- F P F^T + Q` (about 93 000 multiply-adds).
 pub fn propagate_covariance_dense(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     let fd = f.dense();
     *p = fd * *p * fd.transpose() + Covariance::from_diagonal(q);

@@ -39,15 +39,16 @@
 //! | accelerometer bias | 3 | 3 | vector | IMU | [`BA`] = 9 |
 //! | gyroscope bias | 3 | 3 | vector | IMU | [`BG`] = 12 |
 //! | gravity `g_w` | 3 | 3 | vector | IMU | [`G`] = 15 |
-//! | left contact point `p_bl` | 3 | 3 | vector | robot | [`CL`] = 18 |
-//! | right contact point `p_br` | 3 | 3 | vector | robot | [`CR`] = 21 |
-//! | body-to-robot rotation `q_rb` | 4 | 3 | rotation | robot | [`RB`] = 24 |
-//! | wheel radii (left, right) | 2 | 2 | vector | robot | [`RAD`] = 27 |
-//! | clone position | 3 | 3 | vector | clone | [`CP`] = 29 |
-//! | clone attitude | 4 | 3 | rotation | clone | [`CTH`] = 32 |
+//! | gyroscope z scale-factor error `k` | 1 | 1 | vector | IMU | [`KG`] = 18 |
+//! | left contact point `p_bl` | 3 | 3 | vector | robot | [`CL`] = 19 |
+//! | right contact point `p_br` | 3 | 3 | vector | robot | [`CR`] = 22 |
+//! | body-to-robot rotation `q_rb` | 4 | 3 | rotation | robot | [`RB`] = 25 |
+//! | wheel radii (left, right) | 2 | 2 | vector | robot | [`RAD`] = 28 |
+//! | clone position | 3 | 3 | vector | clone | [`CP`] = 30 |
+//! | clone attitude | 4 | 3 | rotation | clone | [`CTH`] = 33 |
 //!
-//! IMU: nominal 19, error [`IMU_DIM`] = 18; robot 11; clone 6; total
-//! [`DIM`] = 35 (the `tests` below pin these numbers, so a change of the
+//! IMU: nominal 20, error [`IMU_DIM`] = 19; robot 11; clone 6; total
+//! [`DIM`] = 36 (the `tests` below pin these numbers, so a change of the
 //! table is a change of the tests too). The IMU part comes first (the
 //! propagation's transition works on its leading blocks) and the clone
 //! last: while it is decoupled (see [`crate::covariance::decouple_clone`])
@@ -103,6 +104,8 @@ pub enum Drive {
     AccelBiasWalk,
     /// Gyroscope bias random walk.
     GyroBiasWalk,
+    /// Gyroscope scale-factor random walk.
+    GyroScaleWalk,
     /// Contact-point random walk.
     ContactWalk,
     /// Body-to-robot rotation random walk.
@@ -129,6 +132,8 @@ pub enum Prior {
     AccelBias,
     /// Gyroscope bias.
     GyroBias,
+    /// Gyroscope z scale-factor error.
+    GyroScale,
     /// Gravity.
     Gravity,
     /// Contact point.
@@ -228,7 +233,7 @@ const fn part_rank(part: Part) -> u8 {
 }
 
 /// The error-state layout, in order (see the module doc).
-pub const BLOCKS: [Block; 12] = {
+pub const BLOCKS: [Block; 13] = {
     use Drive::*;
     use Kind::*;
     use Part::*;
@@ -240,6 +245,7 @@ pub const BLOCKS: [Block; 12] = {
         Block::new("accel_bias", 3, Vector, Imu, AccelBiasWalk, AccelBias),
         Block::new("gyro_bias", 3, Vector, Imu, GyroBiasWalk, GyroBias),
         Block::new("gravity", 3, Vector, Imu, Zero, Gravity),
+        Block::new("gyro_scale", 1, Vector, Imu, GyroScaleWalk, GyroScale),
         Block::new("p_bl", 3, Vector, Robot, ContactWalk, Contact),
         Block::new("p_br", 3, Vector, Robot, ContactWalk, Contact),
         Block::new("q_rb", 3, Rotation, Robot, RotationWalk, BodyToRobot),
@@ -399,6 +405,8 @@ pub const BA: usize = start("accel_bias");
 pub const BG: usize = start("gyro_bias");
 /// Error-state index of gravity.
 pub const G: usize = start("gravity");
+/// Error-state index of the gyroscope z scale-factor error.
+pub const KG: usize = start("gyro_scale");
 /// Error-state index of the left wheel contact point (body frame).
 pub const CL: usize = start("p_bl");
 /// Error-state index of the right wheel contact point (body frame).
@@ -455,6 +463,9 @@ pub struct NominalState {
     pub gyro_bias: Vec3,
     /// Gravity in the world, m/s^2 (about `[0, 0, -9.81]`).
     pub gravity: Vec3,
+    /// Gyroscope z scale-factor error `k`: the gyro reads
+    /// `(1 + k) w_z + b_z` about its z axis (see [`NominalState::corrected_gyro`]).
+    pub gyro_scale: f32,
     /// Clone of the IMU position.
     pub clone_p_wb: Vec3,
     /// Clone of the IMU attitude.
@@ -480,6 +491,29 @@ impl NominalState {
         (self.p_bl + self.p_br) * 0.5
     }
 
+    /// The body rate from a raw gyro sample: bias removed, and the z axis
+    /// divided by its scale factor, `w = (w_m - b) / (1 + k)` on z (the
+    /// model `w_m = (1 + k) w + b + n`; Titterton and Weston, *Strapdown
+    /// Inertial Navigation Technology*, 2nd ed., 2004, sec. 4.2.4). A scale
+    /// factor at or below `-1` (no physical gyro) leaves the rate unscaled.
+    pub fn corrected_gyro(&self, raw: &Vec3) -> Vec3 {
+        let mut w = raw - self.gyro_bias;
+        let s = 1.0 + self.gyro_scale;
+        if s > 0.0 {
+            w.z /= s;
+        }
+        w
+    }
+
+    /// `d theta / d k` per second for the corrected rate `gyro`
+    /// ([`NominalState::corrected_gyro`]): the z rate error a scale-factor
+    /// error `dk` makes, `-w_z / (1 + k)` on the z axis.
+    pub fn gyro_scale_jacobian(&self, gyro: &Vec3) -> Vec3 {
+        let s = 1.0 + self.gyro_scale;
+        let d = if s > 0.0 { -gyro.z / s } else { 0.0 };
+        Vec3::new(0.0, 0.0, d)
+    }
+
     /// Copies the current pose into the clone.
     pub fn clone_pose(&mut self) {
         self.clone_p_wb = self.p_wb;
@@ -494,6 +528,7 @@ impl NominalState {
         self.accel_bias += dx.fixed_rows::<3>(BA);
         self.gyro_bias += dx.fixed_rows::<3>(BG);
         self.gravity += dx.fixed_rows::<3>(G);
+        self.gyro_scale += dx.fixed_rows::<1>(KG).x;
         self.clone_p_wb += dx.fixed_rows::<3>(CP);
         // A decoupled clone (see `crate::covariance::decouple_clone`) gets no
         // correction: skip its rotation (and the renormalisation, which the
@@ -525,6 +560,7 @@ impl NominalState {
         let q = [&self.q_wb, &self.clone_q_wb, &self.q_rb];
         v3.iter().all(|v| v.iter().all(|x| x.is_finite()))
             && q.iter().all(|q| q.coords.iter().all(|x| x.is_finite()))
+            && self.gyro_scale.is_finite()
             && self.radius_left.is_finite()
             && self.radius_right.is_finite()
     }

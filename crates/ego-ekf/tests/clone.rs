@@ -5,7 +5,7 @@
 
 mod random_update;
 
-use ego_ekf::config::{ImuNoise, RobotPrior};
+use ego_ekf::config::{ImuConfig, RobotPrior};
 use ego_ekf::covariance::{decouple_clone, is_positive_definite};
 use ego_ekf::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
@@ -111,7 +111,7 @@ fn a_decoupled_clone_stays_decoupled_and_propagation_may_skip_it() {
         &Vec3::new(0.1, -0.05, 1.3),
         0.004,
     );
-    let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), 0.004);
+    let q = process_noise(&ImuConfig::default(), &RobotPrior::default(), 0.004);
     let clone = CP..CP + 6;
     for seed in 0..10 {
         let original = random_covariance(&mut Rng(seed));

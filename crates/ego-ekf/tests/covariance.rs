@@ -30,6 +30,7 @@ fn nominal() -> NominalState {
         accel_bias: Vec3::zeros(),
         gyro_bias: Vec3::zeros(),
         gravity: Vec3::new(0.0, 0.0, -9.81),
+        gyro_scale: 0.004,
         clone_p_wb: Vec3::new(1.0, 2.0, 0.1),
         clone_q_wb: Quat::from_euler_angles(0.01, 0.02, 0.5),
         p_bl: Vec3::new(0.0, 0.115, -0.06),
@@ -142,7 +143,7 @@ fn update_matches_joseph_form_and_gates() {
 fn the_initial_covariance_follows_the_state_table() {
     use ego_ekf::config::{InitConfig, RobotPrior};
     use ego_ekf::covariance::initial_variances;
-    use ego_ekf::state::{BA, BG, CL, CR, G, V};
+    use ego_ekf::state::{BA, BG, CL, CR, G, KG, V};
     let init = InitConfig {
         position_std: 2.0,
         velocity_std: 3.0,
@@ -151,6 +152,7 @@ fn the_initial_covariance_follows_the_state_table() {
         accel_bias_std: 11.0,
         gyro_bias_std: 13.0,
         gravity_std: 17.0,
+        gyro_scale_std: 31.0,
         ..InitConfig::default()
     };
     let robot = RobotPrior {
@@ -168,6 +170,7 @@ fn the_initial_covariance_follows_the_state_table() {
         (BA, 3, 11.0),
         (BG, 3, 13.0),
         (G, 3, 17.0),
+        (KG, 1, 31.0),
         (CL, 3, 19.0),
         (CR, 3, 19.0),
         (RB, 3, 23.0),

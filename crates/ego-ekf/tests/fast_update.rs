@@ -9,7 +9,7 @@
 
 mod random_update;
 
-use ego_ekf::config::{ImuNoise, RobotPrior, ZuptConfig};
+use ego_ekf::config::{ImuConfig, RobotPrior, ZuptConfig};
 use ego_ekf::covariance::{is_positive_definite, reset, reset_dense};
 use ego_ekf::flow::model::flow_measurement;
 use ego_ekf::grip::GripParams;
@@ -218,7 +218,7 @@ fn propagation_equals_dense_product_on_spread_covariances() {
         let gyro = rng.vec3(2.0);
         let dt = 0.004 * (1.0 + rng.next());
         let f = Transition::new(&r, &accel, &gyro, dt);
-        let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), dt);
+        let q = process_noise(&ImuConfig::default(), &RobotPrior::default(), dt);
         let (mut fast, mut dense) = (p0, p0);
         propagate_covariance(&mut fast, &f, &q);
         propagate_covariance_dense(&mut dense, &f, &q);

@@ -24,6 +24,7 @@ fn state() -> NominalState {
         accel_bias: Vec3::new(0.01, -0.02, 0.03),
         gyro_bias: Vec3::new(0.001, 0.002, -0.003),
         gravity: Vec3::new(0.0, 0.0, -9.81),
+        gyro_scale: 0.004,
         clone_p_wb: Vec3::new(1.001, -2.002, 0.0605),
         clone_q_wb: q_wb * Quat::from_scaled_axis(Vec3::new(0.002, -0.001, 0.003)),
         p_bl: Vec3::new(0.01, 0.11, -0.06),
@@ -66,13 +67,14 @@ fn check<const M: usize>(build: impl Fn(&NominalState) -> Measurement<M>, z: SVe
 
 #[test]
 fn wheel_jacobian_matches_finite_differences() {
-    // The filter passes the gyro corrected by the current bias estimate.
+    // The filter passes the gyro corrected by the current bias and scale
+    // factor estimates.
     let raw = Vec3::new(0.05, -0.04, 0.9);
     // Rates that agree with the state's prediction, where the radius
     // columns (evaluated at the predicted rates) equal the exact Jacobian.
     let x = state();
     let zero = WheelRates::new(Timestamp(1), 0.0, 0.0).unwrap();
-    let m = wheel_measurement(&x, &(raw - x.gyro_bias), &zero, &GripParams::default());
+    let m = wheel_measurement(&x, &x.corrected_gyro(&raw), &zero, &GripParams::default());
     let (mid, diff) = (-m.residual[0], -m.residual[1]);
     let rates = WheelRates::new(
         Timestamp(1),
@@ -82,7 +84,7 @@ fn wheel_jacobian_matches_finite_differences() {
     .unwrap();
     let grip = GripParams::default();
     check(
-        |x| wheel_measurement(x, &(raw - x.gyro_bias), &rates, &grip),
+        |x| wheel_measurement(x, &x.corrected_gyro(&raw), &rates, &grip),
         SVector::zeros(),
     );
 }

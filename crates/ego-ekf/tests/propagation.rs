@@ -2,7 +2,7 @@
 //! reference `F P F^T + Q`, and `F` equals finite differences of the
 //! nominal propagation.
 
-use ego_ekf::config::{ImuNoise, RobotPrior};
+use ego_ekf::config::{ImuConfig, ImuNoise, RobotPrior};
 use ego_ekf::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_dense, propagate_nominal,
 };
@@ -18,6 +18,7 @@ fn state() -> NominalState {
         accel_bias: Vec3::new(0.01, -0.02, 0.03),
         gyro_bias: Vec3::new(0.001, 0.002, -0.003),
         gravity: Vec3::new(0.01, -0.02, -9.81),
+        gyro_scale: 0.012,
         clone_p_wb: Vec3::new(1.0, -2.0, 0.06),
         clone_q_wb: q_wb,
         p_bl: Vec3::new(0.0, 0.115, -0.06),
@@ -41,6 +42,7 @@ fn boxminus(b: &NominalState, a: &NominalState) -> ErrorState {
         .copy_from(&(b.gyro_bias - a.gyro_bias));
     dx.fixed_rows_mut::<3>(15)
         .copy_from(&(b.gravity - a.gravity));
+    dx[18] = b.gyro_scale - a.gyro_scale;
     dx
 }
 
@@ -65,8 +67,9 @@ fn block_propagation_equals_dense_reference() {
     let r = x.q_wb.to_rotation_matrix().into_inner();
     for seed in 0..20 {
         let dt = 0.004 * (1.0 + seed as f32 * 0.1);
-        let f = Transition::new(&r, &accel, &gyro, dt);
-        let q = process_noise(&ImuNoise::default(), &RobotPrior::default(), dt);
+        let f =
+            Transition::new(&r, &accel, &gyro, dt).with_gyro_scale(&x.gyro_scale_jacobian(&gyro));
+        let q = process_noise(&ImuConfig::default(), &RobotPrior::default(), dt);
         let p0 = random_spd(seed);
         let mut fast = p0;
         let mut dense = p0;
@@ -78,9 +81,9 @@ fn block_propagation_equals_dense_reference() {
             "seed {seed}: max error {err}"
         );
         // The rest-to-rest block only gained Q.
-        let rest = fast.fixed_view::<17, 17>(18, 18) - p0.fixed_view::<17, 17>(18, 18);
+        let rest = fast.fixed_view::<17, 17>(19, 19) - p0.fixed_view::<17, 17>(19, 19);
         let q_rest = Covariance::from_diagonal(&q)
-            .fixed_view::<17, 17>(18, 18)
+            .fixed_view::<17, 17>(19, 19)
             .into_owned();
         assert!((rest - q_rest).abs().max() < 1e-6);
     }
@@ -93,20 +96,23 @@ fn transition_matches_finite_differences() {
     let gyro_m = Vec3::new(0.1, -0.05, 1.3);
     let dt = 0.004;
     let r = x0.q_wb.to_rotation_matrix().into_inner();
-    let f = Transition::new(&r, &(accel_m - x0.accel_bias), &(gyro_m - x0.gyro_bias), dt).dense();
+    let gyro = x0.corrected_gyro(&gyro_m);
+    let f = Transition::new(&r, &(accel_m - x0.accel_bias), &gyro, dt)
+        .with_gyro_scale(&x0.gyro_scale_jacobian(&gyro))
+        .dense();
     let step = |x: &NominalState| {
         let mut y = *x;
         propagate_nominal(
             &mut y,
             &(accel_m - x.accel_bias),
-            &(gyro_m - x.gyro_bias),
+            &x.corrected_gyro(&gyro_m),
             dt,
         );
         y
     };
     let y0 = step(&x0);
     let eps = 1e-2f32;
-    for j in 0..18 {
+    for j in 0..19 {
         let mut dx = ErrorState::zeros();
         dx[j] = eps;
         let mut xp = x0;
@@ -114,7 +120,7 @@ fn transition_matches_finite_differences() {
         let mut xm = x0;
         xm.inject(&(-dx));
         let d = (boxminus(&step(&xp), &y0) - boxminus(&step(&xm), &y0)) / (2.0 * eps);
-        for i in 0..18 {
+        for i in 0..19 {
             assert!(
                 (d[i] - f[(i, j)]).abs() < 1e-3,
                 "F[{i},{j}]: numeric {} analytic {}",
@@ -127,12 +133,16 @@ fn transition_matches_finite_differences() {
 
 #[test]
 fn process_noise_follows_the_state_table() {
-    use ego_ekf::state::{BA, BG, CL, CP, CR, G, P, RAD, RB, TH, V};
-    let imu = ImuNoise {
-        accel_density: 2.0,
-        gyro_density: 3.0,
-        accel_random_walk: 5.0,
-        gyro_random_walk: 7.0,
+    use ego_ekf::state::{BA, BG, CL, CP, CR, G, KG, P, RAD, RB, TH, V};
+    let imu = ImuConfig {
+        noise: ImuNoise {
+            accel_density: 2.0,
+            gyro_density: 3.0,
+            accel_random_walk: 5.0,
+            gyro_random_walk: 7.0,
+        },
+        gyro_scale_random_walk: 19.0,
+        ..ImuConfig::default()
     };
     let robot = RobotPrior {
         contact_random_walk: 11.0,
@@ -148,6 +158,7 @@ fn process_noise_follows_the_state_table() {
         (BA, 3, 5.0),
         (BG, 3, 7.0),
         (G, 3, 0.0),
+        (KG, 1, 19.0),
         (CL, 3, 11.0),
         (CR, 3, 11.0),
         (RB, 3, 13.0),

@@ -11,7 +11,7 @@ use crate::aid_status::CameraStatus;
 use crate::camera::CameraSkips;
 use crate::camera::model::imu_motion;
 use crate::covariance;
-use crate::propagate::{Transition, process_noise, propagate_nominal};
+use crate::propagate::{process_noise, propagate_nominal};
 
 impl EgoEkf {
     /// Fuses a camera frame pair's motion (see [`crate::camera`]): the
@@ -82,11 +82,11 @@ impl EgoEkf {
         let Ok(Some(dt)) = self.imu_clock.accept(t) else {
             return false;
         };
-        let gyro = gyro - self.x.gyro_bias;
+        let gyro = self.x.corrected_gyro(&gyro);
         let accel = accel - self.x.accel_bias;
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
-        let f = Transition::new(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu.noise, &self.config.robot, dt);
+        let f = self.transition(&r_wb, &accel, &gyro, dt);
+        let q = process_noise(&self.config.imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
         true

@@ -12,7 +12,7 @@ use crate::floor::FloorFusion;
 use crate::grip::GripParams;
 use crate::recovery::RecoveryCounts;
 use crate::state::{
-    BA, BG, CL, CP, CR, CTH, Covariance, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
+    BA, BG, CL, CP, CR, CTH, Covariance, KG, NominalState, P, Quat, RAD_L, RAD_R, TH, V, Vec3,
 };
 
 impl EgoEkf {
@@ -89,6 +89,16 @@ impl EgoEkf {
     /// Gyroscope bias, rad/s.
     pub fn gyro_bias(&self) -> Vec3 {
         self.x.gyro_bias
+    }
+
+    /// The gyro's z scale-factor error `k` (it reads `(1 + k) w_z + b_z`).
+    pub fn gyro_scale(&self) -> f32 {
+        self.x.gyro_scale
+    }
+
+    /// Standard deviation of the gyro's z scale-factor error.
+    pub fn gyro_scale_std(&self) -> f32 {
+        self.std_dev(KG)
     }
 
     /// Wheel radii `[left, right]`, m.

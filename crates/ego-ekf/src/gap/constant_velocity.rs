@@ -51,7 +51,7 @@ pub fn bridge_gap(
         .zip_apply(&v_cols, |a, b| *a += t * b);
     let q = config.gap.accel_density * config.gap.accel_density;
     let q_yaw = config.gap.gyro_density * config.gap.gyro_density;
-    let imu = process_noise(&config.imu.noise, &config.robot, t);
+    let imu = process_noise(&config.imu, &config.robot, t);
     for (i, q_imu) in imu.iter().enumerate() {
         if let Some(d) = next.get_mut((i, i)) {
             *d += q_imu;

@@ -225,7 +225,7 @@ pub fn bridge_with_wheels(
     let q_wheels = g * sigma * g.transpose();
     next.fixed_view_mut::<POSE_VEL, POSE_VEL>(0, 0)
         .zip_apply(&q_wheels, |a, b| *a += b);
-    let imu = process_noise(&config.imu.noise, &config.robot, gap_s);
+    let imu = process_noise(&config.imu, &config.robot, gap_s);
     for (i, q_imu) in imu.iter().enumerate() {
         if let Some(d) = next.get_mut((i, i)) {
             *d += q_imu;
@@ -260,6 +260,7 @@ mod tests {
             accel_bias: Vec3::zeros(),
             gyro_bias: Vec3::zeros(),
             gravity: Vec3::new(0.0, 0.0, -9.8),
+            gyro_scale: 0.0,
             clone_p_wb: Vec3::zeros(),
             clone_q_wb: Quat::identity(),
             p_bl: r.p_bl + Vec3::new(0.003, 0.002, -0.001),

@@ -268,7 +268,7 @@ mod tests {
             let bits = |v: &[f32]| {
                 v.iter()
                     .map(|x| x.to_bits())
-                    .collect::<heapless::Vec<u32, 140>>()
+                    .collect::<heapless::Vec<u32, { 4 * DIM }>>()
             };
             assert_eq!(
                 bits(new.as_slice()),

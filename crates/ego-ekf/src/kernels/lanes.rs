@@ -123,9 +123,10 @@ mod tests {
     #[cfg(not(target_arch = "arm"))]
     #[test]
     fn block_starts_cover_every_row_once_or_with_overlap_at_the_end() {
-        assert_eq!(starts::<8, 5>(), [0, 8, 16, 24, 27]);
-        assert_eq!(starts::<4, 9>(), [0, 4, 8, 12, 16, 20, 24, 28, 31]);
-        assert_eq!(starts::<5, 7>(), [0, 5, 10, 15, 20, 25, 30]);
+        // DIM = 36.
+        assert_eq!(starts::<8, 5>(), [0, 8, 16, 24, 28]);
+        assert_eq!(starts::<4, 9>(), [0, 4, 8, 12, 16, 20, 24, 28, 32]);
+        assert_eq!(starts::<5, 8>(), [0, 5, 10, 15, 20, 25, 30, 31]);
     }
 
     #[test]
@@ -150,10 +151,11 @@ mod tests {
     #[test]
     fn load_and_store_keep_the_rows_and_refuse_what_does_not_fit() {
         let col: [f32; DIM] = core::array::from_fn(|i| i as f32);
-        assert_eq!(Lanes::<4>::load(&col, 31).0, [31.0, 32.0, 33.0, 34.0]);
-        assert_eq!(Lanes::<4>::load(&col, 32).0, [0.0; 4]);
+        // DIM = 36.
+        assert_eq!(Lanes::<4>::load(&col, 32).0, [32.0, 33.0, 34.0, 35.0]);
+        assert_eq!(Lanes::<4>::load(&col, 33).0, [0.0; 4]);
         let mut out = [0.0f32; DIM];
-        Lanes([1.0f32; 4]).store(&mut out, 33);
+        Lanes([1.0f32; 4]).store(&mut out, 34);
         assert_eq!(out, [0.0; DIM]);
         Lanes([1.0f32; 4]).store(&mut out, 2);
         assert_eq!(&out[..7], &[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0]);

@@ -232,6 +232,7 @@ fn a_reset_sets_the_robot_velocity_and_decouples_it() {
         accel_bias: Vec3::zeros(),
         gyro_bias: Vec3::zeros(),
         gravity: Vec3::new(0.0, 0.0, -9.81),
+        gyro_scale: 0.0,
         clone_p_wb: Vec3::zeros(),
         clone_q_wb: Quat::identity(),
         p_bl: Vec3::new(-0.05, 0.12, -0.04),

@@ -4,13 +4,13 @@ use super::*;
 #[test]
 fn the_table_gives_the_documented_layout() {
     assert_eq!(
-        [P, V, TH, BA, BG, G, CL, CR, RB, RAD, CP, CTH],
-        [0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 29, 32]
+        [P, V, TH, BA, BG, G, KG, CL, CR, RB, RAD, CP, CTH],
+        [0, 3, 6, 9, 12, 15, 18, 19, 22, 25, 28, 30, 33]
     );
-    assert_eq!((DIM, IMU_DIM, REST_DIM), (35, 18, 17));
-    assert_eq!(CLONE, 29..35);
+    assert_eq!((DIM, IMU_DIM, REST_DIM), (36, 19, 17));
+    assert_eq!(CLONE, 30..36);
     assert_eq!(ROTATIONS, [TH, RB, CTH]);
-    assert_eq!(part_range(Part::Robot), 18..29);
+    assert_eq!(part_range(Part::Robot), 19..30);
 }
 
 #[test]

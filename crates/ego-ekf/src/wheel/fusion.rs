@@ -62,6 +62,7 @@ pub struct WheelFusion {
     stop_rate: f32,
     max_age_ns: u64,
     watch: WheelWatch,
+    gyro_scale: bool,
 }
 
 impl WheelFusion {
@@ -77,7 +78,15 @@ impl WheelFusion {
             stop_rate,
             max_age_ns,
             watch: WheelWatch::default(),
+            gyro_scale: false,
         }
+    }
+
+    /// Whether the rows carry their Jacobian on the gyro's scale factor
+    /// ([`crate::config::ImuConfig::estimate_gyro_scale`]; off by default).
+    pub fn with_gyro_scale(mut self, on: bool) -> Self {
+        self.gyro_scale = on;
+        self
     }
 
     /// The current run of gated samples and the time of the last fused one
@@ -211,7 +220,10 @@ impl WheelFusion {
         self.clock.accept(rates.t())?;
         self.stopped = libm::fabsf(rates.left()) < self.stop_rate
             && libm::fabsf(rates.right()) < self.stop_rate;
-        let rows = wheel_rows(x, gyro, rates, grip);
+        let mut rows = wheel_rows(x, gyro, rates, grip);
+        if !self.gyro_scale {
+            rows.scale = [0.0; 4];
+        }
         let speed = mid_axle(
             rim(x.radius_left, rates.left()),
             rim(x.radius_right, rates.right()),

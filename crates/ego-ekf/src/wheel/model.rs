@@ -15,7 +15,11 @@
 //! with `u_mid = R_wb^T v + w x p_mid`, `p_mid = (p_bl + p_br) / 2` the robot
 //! origin and `w` the bias-corrected gyro rate. Jacobians are taken w.r.t.
 //! velocity, attitude, gyro bias, both contact points, the body-to-robot
-//! rotation and both radii, so the robot states are estimated.
+//! rotation and both radii, so the robot states are estimated; and w.r.t.
+//! the gyro's z scale factor `k` ([`WheelRows::scale`]): `w_z` is the
+//! corrected rate `(w_m - b) / (1 + k)`, so each row's column on `k` is its
+//! column on the z bias times `w_z / (1 + k)`: the wheels' yaw rate
+//! (differential row) observes the scale factor while the robot turns.
 //!
 //! The Jacobians w.r.t. the radii use the predicted wheel rates instead of
 //! the measured ones (see the code): the measured ones make the radius an
@@ -45,7 +49,7 @@ use crate::kernels::lanes::{Lanes, starts};
 #[cfg(target_arch = "arm")]
 use crate::state::CLONE;
 use crate::state::{
-    CL, CR, Covariance, DIM, NominalState, RAD, RB, TH, V, Vec3, columns, columns_len,
+    BG, CL, CR, Covariance, DIM, KG, NominalState, RAD, RB, TH, V, Vec3, columns, columns_len,
 };
 use crate::update::Measurement;
 
@@ -77,6 +81,11 @@ fn support_of(col: &[f32; DIM]) -> [f32; SUPPORT_LEN] {
         col.get(c).copied().unwrap_or(0.0)
     })
 }
+
+/// Within [`SUPPORT`]: the z gyro bias's column.
+const BG_Z: usize = 8;
+#[allow(clippy::indexing_slicing)] // evaluated at compile time
+const _: () = assert!(SUPPORT[BG_Z] == BG + 2);
 
 /// Within [`SUPPORT`]: the differential row is zero on velocity and
 /// attitude (the first six), the other rows on nothing but the
@@ -112,6 +121,9 @@ pub struct WheelRows {
     pub h: [[f32; SUPPORT_LEN]; 4],
     /// The noise variance of each row (the rows are uncorrelated).
     pub noise: [f32; 4],
+    /// `dh_r / dk` at the gyro scale factor's column [`KG`] (outside
+    /// [`SUPPORT`]; zero when the scale factor is not estimated).
+    pub scale: [f32; 4],
     /// The factors of the mid-point rows (for [`WheelRows::p_ht`]).
     mid: MidFactors,
     /// Whether the update holds the radii (see [`WheelRows::holds_radius`]).
@@ -147,7 +159,7 @@ impl WheelRows {
     pub fn is_finite(&self) -> bool {
         let zeros = |v: &[f32]| v.iter().fold(0.0f32, |acc, x| acc + x * 0.0);
         let h = self.h.iter().fold(0.0f32, |acc, r| acc + zeros(r));
-        zeros(self.residual.as_slice()) + h + zeros(&self.noise) == 0.0
+        zeros(self.residual.as_slice()) + h + zeros(&self.noise) + zeros(&self.scale) == 0.0
     }
 
     /// The dense measurement (35 columns, 4x4 noise).
@@ -158,6 +170,11 @@ impl WheelRows {
                 if let Some(e) = h.get_mut((r, j)) {
                     *e = v;
                 }
+            }
+        }
+        for (r, v) in self.scale.iter().enumerate() {
+            if let Some(e) = h.get_mut((r, KG)) {
+                *e = *v;
             }
         }
         Measurement {
@@ -189,6 +206,23 @@ impl WheelRows {
     /// 500 more instructions on it (callgrind, `examples/ekf_steps`).
     #[inline(never)]
     pub fn p_ht_to(&self, p: &Covariance, out: &mut SMatrix<f32, DIM, 4>) {
+        self.p_ht_support(p, out);
+        // The scale factor's column (outside the support): `P[:, k] h_k`,
+        // skipped where it is zero (not turning, or not estimated).
+        if let Some(p_k) = p.data.0.get(KG) {
+            for (o, h_k) in out.data.0.iter_mut().zip(self.scale) {
+                if h_k != 0.0 {
+                    for (o, p) in o.iter_mut().zip(p_k) {
+                        *o += p * h_k;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `P H^T` on the columns of [`SUPPORT`] (see [`WheelRows::p_ht_to`]).
+    #[inline(always)]
+    fn p_ht_support(&self, p: &Covariance, out: &mut SMatrix<f32, DIM, 4>) {
         #[cfg(not(target_arch = "arm"))]
         {
             // By symmetry, rows `at..at + N` of the support's columns are
@@ -316,11 +350,15 @@ impl WheelRows {
         // Cortex-M: about 140 instructions each).
         for (c, pht_c) in pht.data.0.iter().enumerate() {
             for (r, h_r) in self.h.iter().enumerate().take(c + 1) {
-                let v = match r {
+                let mut v = match r {
                     DIFFERENTIAL => dot_on::<DIFFERENTIAL_FROM, SUPPORT_LEN>(h_r, pht_c),
                     LATERAL | VERTICAL => dot_on::<0, CONSTRAINT_TO>(h_r, pht_c),
                     _ => dot_on::<0, SUPPORT_LEN>(h_r, pht_c),
                 };
+                let h_k = self.scale.get(r).copied().unwrap_or(0.0);
+                if h_k != 0.0 {
+                    v += h_k * pht_c.get(KG).copied().unwrap_or(0.0);
+                }
                 if let Some(e) = s.get_mut((r, c)) {
                     *e = v;
                 }
@@ -417,6 +455,7 @@ pub fn wheel_rows(
         residual: -h_val,
         h: [[0.0f32; SUPPORT_LEN]; 4],
         noise: [0.5 * sf2, 2.0 * sf2, sl2, sl2],
+        scale: [0.0; 4],
         mid: MidFactors {
             r_rb,
             r_wb_t: r_wb.transpose(),
@@ -475,6 +514,12 @@ pub fn wheel_rows(
     }
     if let Some([a, b]) = d.get_mut(CONSTRAINT_TO..) {
         (*a, *b) = (w_mean - 0.5 * dw, -w_mean - 0.5 * dw);
+    }
+    // `dw_z / dk = -w_z / (1 + k)`, `dw_z / db_z = -1`: the scale
+    // factor's column is the z bias's times `w_z / (1 + k)`.
+    let d_k = -x.gyro_scale_jacobian(gyro).z;
+    for (s, row) in out.scale.iter_mut().zip(out.h.iter()) {
+        *s = row.get(BG_Z).copied().unwrap_or(0.0) * d_k;
     }
     out
 }

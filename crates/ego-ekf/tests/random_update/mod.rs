@@ -49,6 +49,7 @@ pub fn random_state(rng: &mut Rng) -> NominalState {
         accel_bias: rng.vec3(0.05),
         gyro_bias: rng.vec3(0.005),
         gravity: Vec3::new(0.0, 0.0, -9.81) + rng.vec3(0.02),
+        gyro_scale: 0.004,
         clone_p_wb: rng.vec3(4.0),
         clone_q_wb: q_wb * Quat::from_scaled_axis(rng.vec3(0.01)),
         p_bl: Vec3::new(0.0, 0.115, -0.06) + rng.vec3(0.01),

@@ -28,7 +28,8 @@ use traction::vslam_core::scale::{ComposeScale, Distance, SelectionMethod};
                   episode), slip (the office with longer, stronger slip), short (first 12 s), \
                   straight (36 s: 10 m straight at 0.3 m/s on an even wood floor, no slip episodes), \
                   shuttle (the office's first leg out and back again and again, laps taking turns as \
-                  office, slip and straight laps; 300 s unless --duration says otherwise)."
+                  office, slip and straight laps; 300 s unless --duration says otherwise), spin \
+                  (66 s: ten turns in place at 1 rad/s on the even wood floor)."
 )]
 pub struct SimulateArgs {
     /// Scenario name.
@@ -83,6 +84,10 @@ pub struct SimulateArgs {
     /// the robot, m/s^2 (default: the jolt a hard floor explains).
     #[arg(long, value_name = "M_S2", default_value_t = GripParams::default().jolt_threshold())]
     pub fixed_threshold: f32,
+    /// Scale-factor error of the simulated gyro's z axis (0.01: it reads
+    /// 1 % too much).
+    #[arg(long, value_name = "K", default_value_t = 0.0)]
+    pub gyro_scale_error: f64,
     /// The scale pipeline's settings.
     #[command(flatten)]
     pub scale: ScaleArgs,
@@ -258,6 +263,11 @@ pub struct ScaleArgs {
     /// FILE.refused, and the run starts with an empty memory.
     #[arg(long, value_name = "FILE")]
     pub memory: Option<PathBuf>,
+    /// Estimate the gyro's z scale factor as part of the model (the
+    /// filter's `ImuConfig::estimate_gyro_scale`; off by default: the rate is
+    /// only bias-corrected). report.json `final.gyro_scale` is the estimate.
+    #[arg(long)]
+    pub gyro_scale: bool,
     /// The flow sensor's power: `always` on (default) or `on-demand`, woken
     /// when slip is detected or predicted and released after a quiet period
     /// (`traction::flow_demand`, default settings); report.json `flow_power`
@@ -288,6 +298,7 @@ impl ScaleArgs {
             compose: self.compose.map(Into::into),
             distance: self.distance.map(Into::into),
             memory: self.memory,
+            gyro_scale: self.gyro_scale,
             flow_demand: match self.flow {
                 FlowArg::Always => None,
                 FlowArg::OnDemand => Some(traction::flow_demand::FlowDemandConfig::default()),
@@ -449,6 +460,13 @@ pub fn run_simulate_cmd(a: SimulateArgs) -> Result<(), CliError> {
             CliError::Usage(format!("camera size {w}x{h}: expected a size above 0"))
         })?;
     }
+    if !(a.gyro_scale_error.is_finite() && a.gyro_scale_error.abs() < 0.5) {
+        return Err(CliError::Usage(format!(
+            "--gyro-scale-error {}: expected a fraction in (-0.5, 0.5)",
+            a.gyro_scale_error
+        )));
+    }
+    scenario.imu.gyro_scale_error = a.gyro_scale_error;
     let options = a.scale.options(ReplayOptions::default());
     println!(
         "simulating `{}` (seed {}) into {}",

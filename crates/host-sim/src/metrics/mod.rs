@@ -35,6 +35,8 @@ pub struct TrajectoryError {
     pub max_height_error: f64,
     /// RMSE of the yaw error (first-pose alignment), degrees.
     pub yaw_rmse_deg: f64,
+    /// Yaw error at the last matched pose (first-pose alignment), degrees.
+    pub final_yaw_error_deg: f64,
     /// Length of the true path over the matched span, metres.
     pub path_length: f64,
     /// Poses matched to the truth.
@@ -134,6 +136,7 @@ pub fn trajectory_error(est: &[TumPose], truth: &[TumPose]) -> Option<Trajectory
         yaw_rmse_deg: rms(pairs
             .iter()
             .map(|(_, e, g)| wrap(e.yaw + first.theta - g.yaw).to_degrees())),
+        final_yaw_error_deg: wrap(e_end.yaw + first.theta - g_end.yaw).to_degrees(),
         path_length,
         matched: pairs.len(),
     })

@@ -287,6 +287,7 @@ pub(crate) fn estimator_config(
     if !options.wheel_distrust {
         config.wheel_distrust = None;
     }
+    config.filter.imu.estimate_gyro_scale = options.gyro_scale;
     if let Some(m) = options.scale_method {
         config.scale.method = m;
     }

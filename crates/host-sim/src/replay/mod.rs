@@ -35,6 +35,10 @@ use traction::vslam_core::{Reject, Timestamp};
 pub struct ReplayOutput {
     /// The estimator's trajectory of B ([`traction::Estimator::estimate`]).
     pub ekf: Vec<TumPose>,
+    /// The estimate's yaw rate, robot frame, rad/s, with each pose of
+    /// [`ReplayOutput::ekf`]: the gyro's rate corrected by the filter's
+    /// bias and scale factor.
+    pub yaw_rate: Vec<f32>,
     /// Camera poses composed with the metric scale, moved to B.
     pub vslam: Vec<TumPose>,
     /// Wheel odometry alone (B's origin, mid-axle on the floor).
@@ -273,6 +277,10 @@ pub struct ReplayOptions {
     /// ([`traction::ego_ekf::surface::slip`]); `false` cuts it (no expected
     /// slip, the radii learn everywhere), for comparison.
     pub expected_slip: bool,
+    /// Estimate the gyro's z scale factor
+    /// ([`ImuConfig::estimate_gyro_scale`](traction::ego_ekf::config::ImuConfig::estimate_gyro_scale));
+    /// `false` (the default) leaves the rate only bias-corrected.
+    pub gyro_scale: bool,
 }
 
 impl Default for ReplayOptions {
@@ -291,6 +299,7 @@ impl Default for ReplayOptions {
             wheel_distrust: true,
             flow_demand: None,
             expected_slip: true,
+            gyro_scale: false,
         }
     }
 }

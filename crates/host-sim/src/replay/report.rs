@@ -83,6 +83,8 @@ fn final_json(est: &Estimator<'_>) -> Value {
         "wheel_distrusted": counts_json(ekf.wheel_distrust_counts()),
         "wheel_radius_std": ekf.wheel_radius_std(),
         "gyro_bias": [ekf.gyro_bias().x, ekf.gyro_bias().y, ekf.gyro_bias().z],
+        "gyro_scale": ekf.gyro_scale(),
+        "gyro_scale_std": ekf.gyro_scale_std(),
         "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],
         "running_scale": est.scale().running_scale().map(|r| r.scale),
         "expected_slip": est.surface().map(slip_json),
@@ -153,7 +155,7 @@ fn report_with_errors(r: &ReplayOutput) -> Value {
                     "final_error_m": e.final_error,
                     "final_error_pct_of_path": 100.0 * e.final_relative(), "path_length_m": e.path_length,
                     "max_height_error_m": e.max_height_error, "yaw_rmse_deg": e.yaw_rmse_deg,
-                    "matched_poses": e.matched}))
+                    "final_yaw_error_deg": e.final_yaw_error_deg, "matched_poses": e.matched}))
             })
             .collect();
         report["errors"] = Value::Object(errs);
@@ -208,16 +210,17 @@ fn write(p: &Path, text: &str) -> Result<(), CliError> {
 /// The error table: the alignment, then one line per trajectory.
 fn errors_table(r: &ReplayOutput) -> String {
     let mut s = format!("{ALIGNMENT}\n");
-    s += "trajectory   ATE first [m]  ATE SE(2) [m]  final [m]  final / path  height max [m]  yaw RMSE [deg]\n";
+    s += "trajectory   ATE first [m]  ATE SE(2) [m]  final [m]  final / path  height max [m]  yaw RMSE [deg]  yaw final [deg]\n";
     for (n, e) in &r.errors {
         s += &format!(
-            "{n:<12} {:>13.3}  {:>13.3}  {:>9.3}  {:>10.2} %  {:>14.3}  {:>14.2}\n",
+            "{n:<12} {:>13.3}  {:>13.3}  {:>9.3}  {:>10.2} %  {:>14.3}  {:>14.2}  {:>15.2}\n",
             e.ate_rmse,
             e.ate_se2_rmse,
             e.final_error,
             100.0 * e.final_relative(),
             e.max_height_error,
             e.yaw_rmse_deg,
+            e.final_yaw_error_deg,
         );
     }
     s

@@ -193,6 +193,8 @@ pub(super) struct Collected {
     /// The estimator's body poses ([`Estimator::estimate`]), one per fused
     /// IMU sample once the filter runs.
     pub ekf: Vec<TumPose>,
+    /// The estimate's yaw rate (robot frame, rad/s; [`Estimate::yaw_rate`](traction::estimate::Estimate::yaw_rate)) with each pose.
+    pub yaw_rate: Vec<f32>,
     /// One report entry per scale decision.
     pub decisions: Vec<Value>,
     /// The camera path's body poses (the composed camera pose moved to B by
@@ -246,6 +248,7 @@ impl Collected {
             && let Some(e) = est.estimate()
         {
             self.ekf.push(pose(e.t, e.p_wb, &e.q_wb));
+            self.yaw_rate.push(e.yaw_rate);
         }
     }
 
@@ -484,6 +487,7 @@ pub(super) fn run(
     Ok(ReplayOutput {
         imu,
         ekf: c.ekf,
+        yaw_rate: c.yaw_rate,
         vslam: c.vslam,
         wheel_only,
         report,

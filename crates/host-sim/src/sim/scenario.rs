@@ -55,7 +55,7 @@ pub struct Scenario {
 }
 
 /// Names of the scenarios `simulate --scenario` knows.
-pub const SCENARIOS: [&str; 5] = ["office", "slip", "short", "straight", "shuttle"];
+pub const SCENARIOS: [&str; 6] = ["office", "slip", "short", "straight", "shuttle", "spin"];
 
 /// Duration of the `shuttle` scenario unless `--duration` says otherwise, s.
 pub const SHUTTLE_DEFAULT_S: f64 = 300.0;
@@ -120,6 +120,14 @@ impl Scenario {
                 s.name = "straight";
                 s.world = World::straight();
                 s.script = Script::straight();
+                Some(s)
+            }
+            // Ten turns in place on the even wood floor ([`Script::spin`]).
+            "spin" => {
+                let mut s = base;
+                s.name = "spin";
+                s.world = World::straight();
+                s.script = Script::spin();
                 Some(s)
             }
             // The long drive: the office's first leg out and back again and

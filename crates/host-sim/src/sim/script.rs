@@ -232,6 +232,33 @@ impl Script {
     }
 }
 
+/// Turns in place of [`Script::spin`].
+pub const SPIN_TURNS: u32 = 10;
+
+/// Yaw rate of [`Script::spin`]'s turns, rad/s.
+pub const SPIN_RATE: f64 = 1.0;
+
+impl Script {
+    /// Turning in place (66 s): 1 s standing, [`SPIN_TURNS`] full turns to
+    /// the left at [`SPIN_RATE`], standing still for the rest; no episodes.
+    /// A gyro scale-factor error turns into heading error here and nowhere
+    /// is it larger per second.
+    pub fn spin() -> Self {
+        Script {
+            segments: vec![
+                Segment::Wait { duration: 1.0 },
+                Segment::Spin {
+                    angle: f64::from(SPIN_TURNS) * std::f64::consts::TAU,
+                    rate: SPIN_RATE,
+                },
+                Segment::Wait { duration: 1.0 },
+            ],
+            episodes: Vec::new(),
+            duration: 66.0,
+        }
+    }
+}
+
 /// Laps of [`Script::shuttle`]: each lap's slip episodes, by lap number
 /// modulo 3 (office-like, slip-like, straight).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

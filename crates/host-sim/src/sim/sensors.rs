@@ -34,6 +34,9 @@ pub struct ImuModel {
     pub gyro_bias: [f64; 3],
     /// Initial accelerometer bias, m/s^2.
     pub accel_bias: [f64; 3],
+    /// Scale-factor error of the gyroscope's z axis: it reads
+    /// `(1 + k) w_z + b_z + n` (0.01 is 1 %, 3.6 degrees a turn).
+    pub gyro_scale_error: f64,
 }
 
 impl ImuModel {
@@ -50,6 +53,7 @@ impl ImuModel {
             accel_random_walk: d(n.accel_random_walk),
             gyro_bias: [0.004, -0.003, 0.005],
             accel_bias: [0.05, -0.04, 0.08],
+            gyro_scale_error: 0.0,
         }
     }
 }
@@ -102,6 +106,8 @@ pub struct Imu {
     aw: f64,
     bg: [f64; 3],
     ba: [f64; 3],
+    /// The z rate's scale-factor error ([`ImuModel::gyro_scale_error`]).
+    gyro_scale_error: f64,
 }
 
 impl Imu {
@@ -117,6 +123,7 @@ impl Imu {
             aw: m.accel_random_walk * dt.sqrt(),
             bg: m.gyro_bias,
             ba: m.accel_bias,
+            gyro_scale_error: m.gyro_scale_error,
         }
     }
 
@@ -139,7 +146,7 @@ impl Imu {
         let gyro = [
             bg[0] + gauss(rng, self.gn),
             bg[1] + gauss(rng, self.gn),
-            mean_w + bg[2] + gauss(rng, self.gn),
+            (1.0 + self.gyro_scale_error) * mean_w + bg[2] + gauss(rng, self.gn),
         ];
         let accel = [
             fb[0] + ba[0] + gauss(rng, self.an),
@@ -362,6 +369,7 @@ mod tests {
             accel_noise_density: 0.0,
             accel_random_walk: 0.0,
             gyro_bias: [0.0; 3],
+            gyro_scale_error: 0.0,
             accel_bias: [0.0; 3],
             ..ImuModel::mems()
         };
