@@ -57,9 +57,9 @@ pub const LOOP: [Task; 5] = [
         steps: &[Step::FrontEnd, Step::ScaleCamera, Step::FuseCamera],
     },
     Task {
-        name: "segmentation_2hz",
+        name: "segmentation_2hz_160x120",
         rate_hz: 2,
-        steps: &[],
+        steps: &[Step::Segment],
     },
 ];
 

@@ -46,6 +46,8 @@ static mut FE_PREVIOUS_FRAME: [u8; FE_SIZES[0]] = [0; FE_SIZES[0]];
 static mut FE_PREVIOUS_PYRAMID: [u8; FE_SIZES[1]] = [0; FE_SIZES[1]];
 static mut FE_CURRENT_PYRAMID: [u8; FE_SIZES[2]] = [0; FE_SIZES[2]];
 static mut FE_CORNER_SCRATCH: [f32; FE_SIZES[3]] = [0.0; FE_SIZES[3]];
+/// The floor model's label map for a 160x120 frame (2x2 cells).
+static mut SEGMENT_MAP: [u8; FRAME.0 / 2 * (FRAME.1 / 2)] = [0; FRAME.0 / 2 * (FRAME.1 / 2)];
 /// Stack painted below a front-end call.
 const FRONTEND_PAINT: usize = 160 * 1024;
 
@@ -236,6 +238,16 @@ fn main() -> ! {
         }
     };
     let mut medians = [None; Step::ALL.len()];
+    meter.depth = traction_firmware::stack::DEPTH;
+    // SAFETY: the only reference ever made to this static, made once.
+    let segment_map = unsafe { &mut *core::ptr::addr_of_mut!(SEGMENT_MAP) };
+    let segment = match replay::run_segment(FRAMES, segment_map, meter) {
+        Ok(s) => s,
+        Err(e) => {
+            let _ = writeln!(out, "error {e}");
+            finish(&mut out, false)
+        }
+    };
     for step in Step::ALL {
         let i = step.index();
         let stack = meter.stack.get(i).copied().unwrap_or(0);
@@ -269,6 +281,7 @@ fn main() -> ! {
     let _ = summary.write(&mut out);
     let _ = summary.write_counts(&mut out);
     let _ = frontend.write(&mut out);
+    let _ = segment.write(&mut out);
     // The deepest the stack went: during a measured call, or anywhere else.
     let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);
     let lowest = outside.min(meter.lowest);

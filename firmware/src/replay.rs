@@ -65,11 +65,15 @@ pub enum Step {
     /// `FrontEnd::process` of one camera frame (pyramid, corners, LK,
     /// RANSAC homography, decomposition).
     FrontEnd,
+    /// `FloorModel::segment` of one 160x120 frame into an 80x60 label map
+    /// (the reference floor segmenter; its cost does not depend on the
+    /// image's content).
+    Segment,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 10] = [
+    pub const ALL: [Step; 11] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -80,6 +84,7 @@ impl Step {
         Step::ScaleCamera,
         Step::FuseCamera,
         Step::FrontEnd,
+        Step::Segment,
     ];
 
     /// Position in [`Step::ALL`].
@@ -100,6 +105,7 @@ impl Step {
             Step::ScaleCamera => "scale.push_camera",
             Step::FuseCamera => "ekf.fuse_camera",
             Step::FrontEnd => "frontend.process",
+            Step::Segment => "segment.floor_model",
         }
     }
 }
@@ -370,6 +376,74 @@ impl FrontEndRun {
             }
             None => f("frontend.t_over_d", &[]),
         }
+    }
+
+    /// Writes one line `result NAME V...` per quantity.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
+}
+
+/// Label maps made by [`run_segment`]: how many, and the cells of each
+/// class summed over them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SegmentRun {
+    /// Frames labelled.
+    pub maps: u32,
+    /// Cells per class id, over every map.
+    pub classes: [u32; FLOOR_CLASSES],
+}
+
+/// Class ids of the reference floor model.
+pub const FLOOR_CLASSES: usize = traction::ego_ekf::surface::floor_model::CLASSES;
+
+/// Labels every frame of `frame_data` with the reference floor model into
+/// `map` (at least a quarter of a frame: the model labels 2x2 cells).
+pub fn run_segment(
+    frame_data: &[u8],
+    map: &mut [u8],
+    probe: &mut impl Probe,
+) -> Result<SegmentRun, RunError> {
+    use traction::ego_ekf::surface::FloorModel;
+    use traction::vslam_core::segment::Segmenter;
+    let (h, frames) =
+        frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
+    let mut model = FloorModel::reference();
+    let (w, hh) = model
+        .map_size(h.width, h.height)
+        .map_err(|_| RunError::Config("segmentation map size"))?;
+    let cells = map
+        .get(..w.saturating_mul(hh))
+        .map(<[u8]>::len)
+        .ok_or(RunError::Config("segmentation map buffer"))?;
+    let mut run = SegmentRun::default();
+    for (_, pixels) in frames {
+        let view = ImageView::new(pixels, h.width, h.height, h.width)
+            .map_err(|_| RunError::Format(FormatError::Truncated))?;
+        probe
+            .measure(Step::Segment, || {
+                model.segment(&view, &mut *map).map(|_| ())
+            })
+            .map_err(|_| RunError::Config("segmentation map buffer"))?;
+        run.maps += 1;
+        for &c in map.get(..cells).unwrap_or(&[]) {
+            if let Some(n) = run.classes.get_mut(usize::from(c)) {
+                *n += 1;
+            }
+        }
+    }
+    Ok(run)
+}
+
+impl SegmentRun {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f("segment.maps", &[Value::N(self.maps)]);
+        let mut v = [Value::N(0); FLOOR_CLASSES];
+        for (slot, &n) in v.iter_mut().zip(self.classes.iter()) {
+            *slot = Value::N(n);
+        }
+        f("segment.classes", &v);
     }
 
     /// Writes one line `result NAME V...` per quantity.

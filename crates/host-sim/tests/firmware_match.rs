@@ -39,17 +39,19 @@ mod replay;
 #[path = "../../../firmware/src/budget.rs"]
 mod budget;
 
-use replay::{FrontEndRun, NoProbe, Summary, Value};
+use replay::{FrontEndRun, NoProbe, SegmentRun, Summary, Value};
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
 
 static SAMPLE: &[u8] = include_bytes!("../../../firmware/data/sample.bin");
 static FRAMES: &[u8] = include_bytes!("../../../firmware/data/frames160.bin");
 
-/// The host's run of both parts of the firmware: the loop and the front end.
+/// The host's run of the parts of the firmware: the loop, the front end and
+/// the floor segmenter.
 struct Host {
     summary: Summary,
     frontend: FrontEndRun,
+    segment: SegmentRun,
 }
 
 impl Host {
@@ -58,6 +60,7 @@ impl Host {
         let mut push = |name: &str, values: &[Value]| v.push((name.to_string(), values.to_vec()));
         self.summary.for_each(&mut push);
         self.frontend.for_each(&mut push);
+        self.segment.for_each(&mut push);
         v
     }
 
@@ -65,6 +68,7 @@ impl Host {
         let mut text = String::new();
         self.summary.write(&mut text).unwrap();
         self.frontend.write(&mut text).unwrap();
+        self.segment.write(&mut text).unwrap();
         text
     }
 }
@@ -90,7 +94,13 @@ fn host_run() -> Host {
     };
     let frontend =
         replay::run_frontend(FRAMES, &header, buffers, &mut NoProbe).expect("the frames run");
-    Host { summary, frontend }
+    let mut map = vec![0u8; fh.width / 2 * (fh.height / 2)];
+    let segment = replay::run_segment(FRAMES, &mut map, &mut NoProbe).expect("the frames label");
+    Host {
+        summary,
+        frontend,
+        segment,
+    }
 }
 
 fn get<'a>(lines: &'a [(String, Vec<Value>)], name: &str) -> &'a [Value] {
@@ -238,6 +248,10 @@ fn host_loop_runs_the_sample_data() {
             );
         }
     }
+    // Every frame labelled, every cell of every map counted once.
+    let seg = &host.segment;
+    assert_eq!(seg.maps, 3);
+    assert_eq!(seg.classes.iter().sum::<u32>(), 3 * 80 * 60);
     // The printed form reads back exactly.
     let (problems, worst) = compare(&text, &host);
     assert!(problems.is_empty(), "{problems:#?}");
