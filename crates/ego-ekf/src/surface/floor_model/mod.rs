@@ -22,7 +22,7 @@ use vslam_core::image::{ImageView, LabelView};
 use vslam_core::segment::{SegmentError, Segmenter};
 
 use super::classes::{ClassConfig, SurfaceKind};
-pub use features::{CELL, FEATURES, cell_features};
+pub use features::{CELL, FEATURES, MAX_ROW_WIDTH, RowFeatures, cell_features};
 
 /// Hidden units of the perceptron.
 pub const HIDDEN: usize = 24;
@@ -162,9 +162,21 @@ impl Segmenter for FloorModel {
         let (w, h) = self.map_size(image.width(), image.height())?;
         let n = w.checked_mul(h).ok_or(SegmentError::UnsupportedSize)?;
         let map = out.get_mut(..n).ok_or(SegmentError::OutputTooSmall)?;
-        for (i, slot) in map.iter_mut().enumerate() {
-            let f = cell_features(image, i % w, i / w);
-            *slot = self.weights.classify(&f);
+        // Row by row from running sums; cell by cell when the image is
+        // wider than the row buffers (the same features either way).
+        let mut rows = RowFeatures::new();
+        let weights = &self.weights;
+        for (cy, labels) in map.chunks_exact_mut(w).enumerate() {
+            let done = rows.row(image, cy, |cx, f| {
+                if let Some(slot) = labels.get_mut(cx) {
+                    *slot = weights.classify(&f);
+                }
+            });
+            if !done {
+                for (cx, slot) in labels.iter_mut().enumerate() {
+                    *slot = weights.classify(&cell_features(image, cx, cy));
+                }
+            }
         }
         LabelView::new(map, w, h, w).map_err(SegmentError::Map)
     }
