@@ -35,7 +35,7 @@ pub struct Task {
 /// The traction loop's periodic tasks at the rates of the sample data
 /// (`host-sim simulate`'s sensors) and of the segmentation the surface
 /// model expects.
-pub const LOOP: [Task; 5] = [
+pub const LOOP: [Task; 6] = [
     Task {
         name: "imu_250hz",
         rate_hz: 250,
@@ -45,6 +45,11 @@ pub const LOOP: [Task; 5] = [
         name: "wheels_50hz",
         rate_hz: 50,
         steps: &[Step::Odometry, Step::ScaleWheel, Step::FuseWheel],
+    },
+    Task {
+        name: "navigate_50hz",
+        rate_hz: 50,
+        steps: &[Step::Navigate],
     },
     Task {
         name: "flow_100hz",

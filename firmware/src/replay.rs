@@ -20,8 +20,10 @@
 use core::fmt::{self, Write};
 
 use traction::ego_ekf::{EgoEkf, FilterConfig};
+use traction::estimate::estimate_of;
 use traction::estimator::{EstimatorConfig, EstimatorError, filter_scale};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
+use traction::navigate::{Command, NavConfig, Navigator, Point, Policy};
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
@@ -69,11 +71,14 @@ pub enum Step {
     /// (the reference floor segmenter; its cost does not depend on the
     /// image's content).
     Segment,
+    /// `estimate_of` plus `Navigator::command`: the waypoint navigator's
+    /// wheel command from the filter's estimate, after each wheel update.
+    Navigate,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 11] = [
+    pub const ALL: [Step; 12] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -85,6 +90,7 @@ impl Step {
         Step::FuseCamera,
         Step::FrontEnd,
         Step::Segment,
+        Step::Navigate,
     ];
 
     /// Position in [`Step::ALL`].
@@ -106,6 +112,7 @@ impl Step {
             Step::FuseCamera => "ekf.fuse_camera",
             Step::FrontEnd => "frontend.process",
             Step::Segment => "segment.floor_model",
+            Step::Navigate => "navigate.command",
         }
     }
 }
@@ -234,7 +241,15 @@ pub struct Summary {
     pub records: PerStream<u32>,
     /// Camera motions that got a scale.
     pub scaled_frames: u32,
+    /// Navigator commands computed, and the last one.
+    pub nav_commands: u32,
+    /// The navigator's last command.
+    pub nav_command: Command,
 }
+
+/// The navigator's route over the sample's drive (the office's first leg):
+/// metres in the start pose's frame.
+pub const NAV_ROUTE: [Point; 2] = [[3.0, 0.0], [6.0, 0.3]];
 
 /// Runs the loop over `data`, every call through `probe`.
 pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
@@ -247,6 +262,10 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
     let mut imu_invalid = SampleCounts::new();
     let mut counts = PerStream::splat(0u32);
     let mut scaled_frames = 0u32;
+    let mut nav: Navigator<4> =
+        Navigator::new(NavConfig::default(), Policy::FloorAware, &NAV_ROUTE)
+            .map_err(|_| RunError::Config("navigator"))?;
+    let (mut nav_commands, mut nav_command) = (0u32, Command::default());
     let (gyro_max, accel_max) = (cfg.filter.imu.gyro_max, cfg.filter.imu.accel_max);
     for record in records {
         let record = record.map_err(RunError::Format)?;
@@ -266,6 +285,15 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
                 if let Ok(Some(step)) = step {
                     let _ = probe.measure(Step::ScaleWheel, || scale.push_wheel(&step.delta));
                     let _ = probe.measure(Step::FuseWheel, || ekf.fuse_wheel(&step.rates));
+                    let command = probe.measure(Step::Navigate, || {
+                        estimate_of(&ekf)
+                            .map(|est| nav.command(&est, None).0)
+                            .ok_or(())
+                    });
+                    if let Ok(c) = command {
+                        nav_commands += 1;
+                        nav_command = c;
+                    }
                 }
             }
             Record::Flow(s) => {
@@ -291,6 +319,8 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
         imu_invalid,
         records: counts,
         scaled_frames,
+        nav_commands,
+        nav_command,
     })
 }
 
@@ -489,6 +519,14 @@ pub enum Value {
 impl Summary {
     /// Every printed quantity: `(name, values)`.
     pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f(
+            "navigate.command",
+            &[
+                Value::N(self.nav_commands),
+                Value::F(self.nav_command.v),
+                Value::F(self.nav_command.w),
+            ],
+        );
         let e = &self.ekf;
         let v3 = |v: Vec3| [Value::F(v.x), Value::F(v.y), Value::F(v.z)];
         let q = e.attitude();
