@@ -1,5 +1,5 @@
 //! Benchmarks of the ego-state EKF: one IMU propagation (nominal state and
-//! the full 35x35 covariance, block-structured; the dense `F P F^T + Q`
+//! the full 36x36 covariance, block-structured; the dense `F P F^T + Q`
 //! reference for comparison) and one wheel update (full covariance; the
 //! update maths alone: the wheel's fast path, the generic structured update
 //! and the dense Joseph-form reference, for comparison). Setup (a filter
@@ -75,7 +75,7 @@ fn benches(c: &mut Criterion) {
     c.bench_function("ekf/harness (a fresh filter copy, empty routine)", |b| {
         b.iter_batched_ref(|| filter.clone(), |f| black_box(f.state().p_wb.x), BATCH)
     });
-    c.bench_function("ekf/propagate (nominal + 35x35 covariance + clone)", |b| {
+    c.bench_function("ekf/propagate (nominal + 36x36 covariance + clone)", |b| {
         b.iter_batched_ref(
             || filter.clone(),
             |f| black_box(f.propagate(black_box(&sample))),

@@ -46,7 +46,7 @@ pub const TRAJECTORY: usize = 32;
 /// The calls the loop makes, each measured on its own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Step {
-    /// `EgoEkf::propagate`: nominal state, 35x35 covariance, clone, ZUPT when due.
+    /// `EgoEkf::propagate`: nominal state, 36x36 covariance, clone, ZUPT when due.
     Propagate,
     /// `EgoEkf::fuse_wheel`.
     FuseWheel,

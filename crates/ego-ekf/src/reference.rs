@@ -1,6 +1,6 @@
 //! Dense reference formulas of the update, written as in the textbook
 //! (Solà 2017, sec. 6.1-6.3; Bucy and Joseph, *Filtering for Stochastic
-//! Processes*, 1968, for the Joseph form): full 35x35 products, no structure
+//! Processes*, 1968, for the Joseph form): full 36x36 products, no structure
 //! exploited. The tests compare the fast [`crate::update`] against these,
 //! and the benchmarks time them for comparison; the filter never calls them.
 //! (The propagation's dense reference is

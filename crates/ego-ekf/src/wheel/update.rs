@@ -10,7 +10,7 @@
 //! row (Solà 2017, sec. 6.1-6.3; the Cholesky factor of `S` carries the
 //! sequence), with all of their rank-one downdates applied in one pass over
 //! the upper triangle of `P`, then the error reset on the upper triangle and
-//! one mirror: no 35x35 temporary.
+//! one mirror: no 36x36 temporary.
 //!
 //! The gate: the forward and the differential rows are each tested with the
 //! grip's 1-DOF chi-square gate on their own variance under the prior `P`;
