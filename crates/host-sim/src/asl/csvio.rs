@@ -39,6 +39,21 @@ impl Row {
         Ok(x)
     }
 
+    /// Field `i` parsed as a finite `f32`: text that is finite as `f64` but
+    /// out of `f32`'s range is refused like `inf`.
+    pub fn f32(&self, path: &Path, i: usize, name: &str) -> Result<f32, CliError> {
+        let x = self.f64(path, i, name)? as f32;
+        if !x.is_finite() {
+            let s = self.field(path, i, name)?;
+            return Err(CliError::line(
+                path,
+                self.line,
+                format!("{name}: `{s}` is out of range for f32"),
+            ));
+        }
+        Ok(x)
+    }
+
     /// Field `i` parsed as an `f64`, which may be NaN or infinite (`nan`,
     /// `inf`, `-inf` parse): the value is what the sensor reported, bad or
     /// not; only text that is no number is an error.
@@ -222,6 +237,19 @@ mod tests {
         assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
         let e = rows[0].number(&p, 0, "a").unwrap_err().to_string();
         assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
+    }
+
+    #[test]
+    fn a_value_beyond_f32_is_refused_as_f32_but_not_as_f64() {
+        let p = write("f32range", "#t,a\n100,5.4512e51\n");
+        let rows = read_rows(&p, 2).unwrap();
+        assert_eq!(rows[0].f64(&p, 0, "a").unwrap(), 5.4512e51);
+        let e = rows[0].f32(&p, 0, "a").unwrap_err().to_string();
+        assert!(
+            e.contains("data.csv:2: a: `5.4512e51` is out of range for f32"),
+            "{e}"
+        );
+        assert_eq!(rows[0].f32(&p, 0, "a").ok(), None);
     }
 
     #[test]

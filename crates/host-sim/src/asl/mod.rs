@@ -147,10 +147,12 @@ impl BadSamples {
         }
     }
 
-    fn value(self, r: &csvio::Row, path: &Path, i: usize, name: &str) -> Result<f64, CliError> {
+    /// Field `i` as the `f32` the estimator takes. Refused, a value that is
+    /// finite as text but overflows `f32` (`5e51`) is an error like `inf`.
+    fn value(self, r: &csvio::Row, path: &Path, i: usize, name: &str) -> Result<f32, CliError> {
         match self {
-            BadSamples::PassOn => r.number(path, i, name),
-            BadSamples::Refuse => r.f64(path, i, name),
+            BadSamples::PassOn => Ok(r.number(path, i, name)? as f32),
+            BadSamples::Refuse => r.f32(path, i, name),
         }
     }
 }
@@ -184,7 +186,7 @@ pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliErr
         for r in bad.rows(&p, 7)? {
             let mut x = [0f32; 6];
             for (i, slot) in x.iter_mut().enumerate() {
-                *slot = bad.value(&r, &p, i, IMU_COLUMNS[i])? as f32;
+                *slot = bad.value(&r, &p, i, IMU_COLUMNS[i])?;
             }
             v.push(RawImuSample {
                 t: r.t,
@@ -203,8 +205,8 @@ pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliErr
             for r in bad.rows(&p, 3)? {
                 v.push(RawWheelRates {
                     t: r.t,
-                    left: bad.value(&r, &p, 0, "left")? as f32,
-                    right: bad.value(&r, &p, 1, "right")? as f32,
+                    left: bad.value(&r, &p, 0, "left")?,
+                    right: bad.value(&r, &p, 1, "right")?,
                 });
             }
             ds.wheel_rates = Some((meta, v));
