@@ -237,6 +237,7 @@ pub fn record(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use traction::vslam_core::flow_frames::high_pass;
 
     fn step(x: f64, v: f64) -> TruthStep {
         TruthStep {
@@ -272,18 +273,25 @@ mod tests {
         let a = r.render(&world, &step(1.0, 0.0), &mut rng);
         // Four pixels forward: the floor moves four columns to the left.
         let b = r.render(&world, &step(1.0 + 4.0 * pitch, 0.0), &mut rng);
-        let diff = |shift: usize| {
+        // Compared without the LED's fall-off, which stays where it is.
+        let (mut ha, mut hb) = ([0u8; FLOW_FRAME_LEN], [0u8; FLOW_FRAME_LEN]);
+        high_pass(&a.pixels, &mut ha);
+        high_pass(&b.pixels, &mut hb);
+        // b(x) = a(x + k) fits best at k = 4 among shifts 0..=8.
+        let diff = |k: usize| {
             let mut d = 0.0;
             for y in 0..FLOW_FRAME_SIDE {
-                for x in 0..FLOW_FRAME_SIDE - 4 {
-                    let pa = a.pixels[y * FLOW_FRAME_SIDE + x + shift] as f64;
-                    let pb = b.pixels[y * FLOW_FRAME_SIDE + x + 4 - shift] as f64;
+                for x in 0..FLOW_FRAME_SIDE - 8 {
+                    let pa = ha[y * FLOW_FRAME_SIDE + x + k] as f64;
+                    let pb = hb[y * FLOW_FRAME_SIDE + x] as f64;
                     d += (pa - pb).abs();
                 }
             }
             d
         };
-        assert!(diff(4) * 3.0 < diff(0), "{} vs {}", diff(4), diff(0));
+        let costs: Vec<f64> = (0..=8).map(diff).collect();
+        let best = (0..=8).min_by(|a, b| costs[*a].total_cmp(&costs[*b]));
+        assert_eq!(best, Some(4), "{costs:?}");
         assert!(contrast(&a) > 8.0, "contrast {}", contrast(&a));
         let fast = r.render(&world, &step(1.0, 4.0), &mut rng);
         assert!(
