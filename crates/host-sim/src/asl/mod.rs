@@ -620,6 +620,58 @@ mod tests {
     }
 
     #[test]
+    fn raw_flow_frames_round_trip_and_bad_rows_are_named() {
+        let d = tmp("flowraw");
+        let src = d.join("src");
+        std::fs::create_dir_all(&src).unwrap();
+        let mut ds = sample_dataset();
+        let meta = ds.flow.as_ref().unwrap().0.clone();
+        let frames: Vec<FlowFrameEntry> = [(5_000_000u64, 512u16), (15_000_000, 640)]
+            .iter()
+            .map(|&(t, shutter)| {
+                let path = src.join(format!("f{t}.png"));
+                crate::pngio::save_gray(
+                    &path,
+                    &crate::pngio::GrayImage {
+                        width: 35,
+                        height: 35,
+                        data: vec![(t / 1_000_000) as u8; 35 * 35],
+                    },
+                )
+                .unwrap();
+                FlowFrameEntry {
+                    t: Timestamp(t),
+                    path,
+                    shutter,
+                }
+            })
+            .collect();
+        ds.flowraw = Some((meta, frames));
+        let root = d.join("log");
+        write_dataset(&root, &ds).unwrap();
+        let csv = root.join("mav0/flowraw0/data.csv");
+        assert_eq!(
+            std::fs::read_to_string(&csv).unwrap(),
+            format!("{FLOWRAW_HEADER}\n5000000,5000000.png,512\n15000000,15000000.png,640\n")
+        );
+        let back = read_dataset(&root).unwrap();
+        let (m, v) = back.flowraw.unwrap();
+        assert_eq!(m, ds.flowraw.as_ref().unwrap().0);
+        assert_eq!(
+            v.iter().map(|e| (e.t.0, e.shutter)).collect::<Vec<_>>(),
+            [(5_000_000, 512), (15_000_000, 640)]
+        );
+        let img = crate::pngio::load_gray(&v[1].path).unwrap();
+        assert_eq!((img.width, img.height, img.data[0]), (35, 35, 15));
+        std::fs::write(&csv, format!("{FLOWRAW_HEADER}\n5000000,missing.png,512\n")).unwrap();
+        let e = read_dataset(&root).unwrap_err().to_string();
+        assert!(e.contains("flowraw0/data.csv:2:"), "{e}");
+        std::fs::write(&csv, format!("{FLOWRAW_HEADER}\n5000000,5000000.png,x\n")).unwrap();
+        let e = read_dataset(&root).unwrap_err().to_string();
+        assert!(e.contains("flowraw0/data.csv:2: shutter"), "{e}");
+    }
+
+    #[test]
     fn malformed_files_are_named_with_their_line() {
         let d = tmp("bad");
         write_dataset(&d, &sample_dataset()).unwrap();
