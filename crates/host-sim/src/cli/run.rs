@@ -337,7 +337,7 @@ fn faults_long_help() -> String {
 #[derive(Debug, Args)]
 #[command(
     about = "Replay a recorded ASL dataset through the estimator",
-    long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, cam0, seg0, \
+    long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, flowraw0, cam0, seg0, \
                   state_groundtruth_estimate0; any may be absent, the report names what is missing), runs it \
                   through the estimator and writes DIR/ekf.tum, DIR/vslam.tum, \
                   DIR/wheel_only.tum, DIR/report.json, DIR/trajectory.svg, DIR/errors.svg and DIR/report.html. With ground truth \
