@@ -4,6 +4,8 @@
 //! `flowraw0` and no counts is replayed from its frames; cutting any link
 //! (no frames, frames that do not move) shows.
 
+mod common;
+
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::{FlowSource, ReplayOptions, replay_with};
 use host_sim::sim::drivers::FrameGrabber;
@@ -18,10 +20,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-flowraw-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-flowraw", name)
 }
 
 #[test]

@@ -306,19 +306,26 @@ const IMU_COLUMNS: [&str; 6] = [
     "w_RS_S_x", "w_RS_S_y", "w_RS_S_z", "a_RS_S_x", "a_RS_S_y", "a_RS_S_z",
 ];
 
+/// The file a row's `filename` column names under `dir/data/`; a missing
+/// one is an error naming the `data.csv` line (`what` says what it is).
+fn existing_file(dir: &Path, csv: &Path, r: &csvio::Row, what: &str) -> Result<PathBuf, CliError> {
+    let name = r.field(csv, 0, "filename")?;
+    let file = dir.join("data").join(name);
+    if !file.is_file() {
+        return Err(CliError::line(
+            csv,
+            r.line,
+            format!("{what} `{}` does not exist", file.display()),
+        ));
+    }
+    Ok(file)
+}
+
 fn read_images(dir: &Path) -> Result<Vec<ImageEntry>, CliError> {
     let p = dir.join("data.csv");
     let mut v = Vec::new();
     for r in csvio::read_rows(&p, 2)? {
-        let name = r.field(&p, 0, "filename")?;
-        let img = dir.join("data").join(name);
-        if !img.is_file() {
-            return Err(CliError::line(
-                &p,
-                r.line,
-                format!("image `{}` does not exist", img.display()),
-            ));
-        }
+        let img = existing_file(dir, &p, &r, "image")?;
         v.push(ImageEntry { t: r.t, path: img });
     }
     Ok(v)
@@ -328,15 +335,7 @@ fn read_flow_frames(dir: &Path) -> Result<Vec<FlowFrameEntry>, CliError> {
     let p = dir.join("data.csv");
     let mut v = Vec::new();
     for r in csvio::read_rows(&p, 3)? {
-        let name = r.field(&p, 0, "filename")?;
-        let img = dir.join("data").join(name);
-        if !img.is_file() {
-            return Err(CliError::line(
-                &p,
-                r.line,
-                format!("frame `{}` does not exist", img.display()),
-            ));
-        }
+        let img = existing_file(dir, &p, &r, "frame")?;
         v.push(FlowFrameEntry {
             t: r.t,
             path: img,
