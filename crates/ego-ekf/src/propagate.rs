@@ -64,6 +64,14 @@ impl Transition {
         self
     }
 
+    /// Whether the attitude depends on the gyro's scale factor (`F_thetak`
+    /// not zero). When it does not, the covariance step leaves out the
+    /// products with `F_thetak` (zeros: only the sign of a zero sum can
+    /// differ).
+    pub fn couples_gyro_scale(&self) -> bool {
+        self.f_thk.iter().any(|v| *v != 0.0)
+    }
+
     /// The full `F_x` (for the dense reference and tests).
     pub fn dense(&self) -> Covariance {
         let mut f = Covariance::identity();
@@ -107,49 +115,54 @@ pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
 /// block of the state table, the density its [`Drive`] names.
 pub fn process_noise(imu: &ImuConfig, robot: &RobotPrior, dt: f32) -> ErrorState {
     let (scale_walk, imu) = (imu.gyro_scale_random_walk, &imu.noise);
-    let mut q = ErrorState::zeros();
-    for (start, len, drive) in DRIVEN {
-        let density = match drive {
-            Drive::Zero => 0.0,
-            Drive::AccelNoise => imu.accel_density,
-            Drive::GyroNoise => imu.gyro_density,
-            Drive::AccelBiasWalk => imu.accel_random_walk,
-            Drive::GyroBiasWalk => imu.gyro_random_walk,
-            Drive::GyroScaleWalk => scale_walk,
-            Drive::ContactWalk => robot.contact_random_walk,
-            Drive::RotationWalk => robot.rotation_random_walk,
-            Drive::RadiusWalk => robot.radius_random_walk,
-        };
-        q.rows_mut(start, len).fill(density * density * dt);
-    }
-    q
+    // One value per kind of drive (in the order of `drive_slot`), then
+    // each entry picks its block's: a table lookup per entry instead of a
+    // fill per block (the same products, so the same bits).
+    let densities = [
+        0.0,
+        imu.accel_density,
+        imu.gyro_density,
+        imu.accel_random_walk,
+        imu.gyro_random_walk,
+        scale_walk,
+        robot.contact_random_walk,
+        robot.rotation_random_walk,
+        robot.radius_random_walk,
+    ];
+    let values = densities.map(|density| density * density * dt);
+    ErrorState::from_fn(|i, _| {
+        let slot = DRIVE_OF.get(i).copied().unwrap_or(0);
+        values.get(usize::from(slot)).copied().unwrap_or(0.0)
+    })
 }
 
-/// Number of blocks with process noise.
-#[allow(clippy::indexing_slicing)] // k < BLOCKS.len(); evaluated at compile time
-const DRIVEN_COUNT: usize = {
-    let (mut n, mut k) = (0, 0);
-    while k < BLOCKS.len() {
-        if !matches!(BLOCKS[k].drive, Drive::Zero) {
-            n += 1;
-        }
-        k += 1;
+/// The slot of a drive in [`process_noise`]'s table of values.
+const fn drive_slot(drive: Drive) -> u8 {
+    match drive {
+        Drive::Zero => 0,
+        Drive::AccelNoise => 1,
+        Drive::GyroNoise => 2,
+        Drive::AccelBiasWalk => 3,
+        Drive::GyroBiasWalk => 4,
+        Drive::GyroScaleWalk => 5,
+        Drive::ContactWalk => 6,
+        Drive::RotationWalk => 7,
+        Drive::RadiusWalk => 8,
     }
-    n
-};
+}
 
-/// `(start, dimension, drive)` of the blocks with process noise, from the
-/// state table (constants, so the loop of [`process_noise`] unrolls into
-/// stores at fixed rows).
-#[allow(clippy::indexing_slicing)] // n < DRIVEN_COUNT, k < BLOCKS.len(); evaluated at compile time
-const DRIVEN: [(usize, usize, Drive); DRIVEN_COUNT] = {
-    let mut out = [(0, 0, Drive::Zero); DRIVEN_COUNT];
-    let (mut n, mut k) = (0, 0);
+/// For each error-state entry, the [`drive_slot`] of its block (from the
+/// state table, at compile time).
+#[allow(clippy::indexing_slicing)] // i < DIM, k < BLOCKS.len(); evaluated at compile time
+const DRIVE_OF: [u8; DIM] = {
+    let mut out = [0u8; DIM];
+    let mut k = 0;
     while k < BLOCKS.len() {
         let b = BLOCKS[k];
-        if !matches!(b.drive, Drive::Zero) {
-            out[n] = (b.start, b.dim, b.drive);
-            n += 1;
+        let mut i = b.start;
+        while i < b.start + b.dim {
+            out[i] = drive_slot(b.drive);
+            i += 1;
         }
         k += 1;
     }
@@ -190,7 +203,11 @@ fn at(column: &[f32; DIM], i: usize) -> f32 {
 /// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
 /// dense 93,000. The result is exactly symmetric if `P` was.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
-    propagate_blocks::<false>(p, f, q);
+    if f.couples_gyro_scale() {
+        propagate_blocks::<false, true>(p, f, q);
+    } else {
+        propagate_blocks::<false, false>(p, f, q);
+    }
 }
 
 /// [`propagate_covariance`] for a `P` whose clone is decoupled (its rows
@@ -200,7 +217,11 @@ pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) 
 /// same result bit for bit, without the clone's six rows in the column
 /// passes and its six columns in the symmetric copy.
 pub fn propagate_covariance_clone_decoupled(p: &mut Covariance, f: &Transition, q: &ErrorState) {
-    propagate_blocks::<true>(p, f, q);
+    if f.couples_gyro_scale() {
+        propagate_blocks::<true, true>(p, f, q);
+    } else {
+        propagate_blocks::<true, false>(p, f, q);
+    }
 }
 
 /// The first `rows` rows of a column (empty past its end).
@@ -218,9 +239,10 @@ const fn rows_visited(skip_clone: bool) -> usize {
 /// The columns of `P F^T` for position, velocity and attitude over the
 /// first `rows` rows (all, or all but a decoupled clone's: skipping them
 /// measured cheaper on Cortex-M; on hosts the whole columns vectorise
-/// better), in the order that reads only old values.
+/// better), in the order that reads only old values. `SCALE`: whether the
+/// attitude reads the gyro scale factor's column (`F_thetak` nonzero).
 #[inline(always)]
-fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
+fn column_passes<const SCALE: bool>(p: &mut Covariance, f: &Transition, rows: usize) {
     let dt = f.dt;
     let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
     {
@@ -318,23 +340,31 @@ fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
                 .zip(w_rows)
             {
                 let w = Vec3::new(*w0, *w1, *w2);
-                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt + ftk * *k;
+                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
+                let t = if SCALE { t + ftk * *k } else { t };
                 (*c0, *c1, *c2) = (t.x, t.y, t.z);
             }
         }
     }
 }
 
-fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
+/// The block step; `SCALE` as in [`column_passes`].
+fn propagate_blocks<const SKIP_CLONE: bool, const SCALE: bool>(
+    p: &mut Covariance,
+    f: &Transition,
+    q: &ErrorState,
+) {
     let dt = f.dt;
     let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
-    column_passes(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
+    column_passes::<SCALE>(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
     // 0..19 of the new columns (the rows BA, BG, G, KG are final already).
     let mut block = [[0.0f32; 9]; 9];
     for (out, col) in block.iter_mut().zip(cols.iter()) {
-        let [
+        // By reference: a pattern on `*col` copies the whole column first
+        // (a `memcpy` of 144 bytes per column on Cortex-M).
+        let &[
             m0,
             m1,
             m2,
@@ -355,14 +385,15 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
             m17,
             m18,
             ..,
-        ] = *col;
+        ] = col;
         let t = Vec3::new(m6, m7, m8);
         let new_p = Vec3::new(m0, m1, m2) + Vec3::new(m3, m4, m5) * dt;
         let new_v = Vec3::new(m3, m4, m5)
             + fvt * t
             + fva * Vec3::new(m9, m10, m11)
             + Vec3::new(m15, m16, m17) * dt;
-        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt + ftk * m18;
+        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt;
+        let new_t = if SCALE { new_t + ftk * m18 } else { new_t };
         *out = [
             new_p.x, new_p.y, new_p.z, new_v.x, new_v.y, new_v.z, new_t.x, new_t.y, new_t.z,
         ];
