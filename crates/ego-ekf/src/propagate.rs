@@ -186,6 +186,7 @@ const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G ==
 
 /// Entry `i` of a covariance column (`0.0` outside; never outside for the
 /// loops below, whose `i` runs over `0..DIM`, so the check compiles away).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn at(column: &[f32; DIM], i: usize) -> f32 {
     column.get(i).copied().unwrap_or(0.0)
@@ -225,6 +226,7 @@ pub fn propagate_covariance_clone_decoupled(p: &mut Covariance, f: &Transition, 
 }
 
 /// The first `rows` rows of a column (empty past its end).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn rows_of(rows: usize, column: &[f32; DIM]) -> &[f32] {
     column.get(..rows).unwrap_or(&[])
@@ -241,6 +243,7 @@ const fn rows_visited(skip_clone: bool) -> usize {
 /// measured cheaper on Cortex-M; on hosts the whole columns vectorise
 /// better), in the order that reads only old values. `SCALE`: whether the
 /// attitude reads the gyro scale factor's column (`F_thetak` nonzero).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn column_passes<const SCALE: bool>(p: &mut Covariance, f: &Transition, rows: usize) {
     let dt = f.dt;
@@ -348,11 +351,167 @@ fn column_passes<const SCALE: bool>(p: &mut Covariance, f: &Transition, rows: us
     }
 }
 
-/// The block step; `SCALE` as in [`column_passes`].
+/// The block step; `SCALE` as in [`column_passes`]. On Cortex-M row by
+/// row ([`propagate_rows`]), on hosts by columns (which vectorise).
 fn propagate_blocks<const SKIP_CLONE: bool, const SCALE: bool>(
     p: &mut Covariance,
     f: &Transition,
     q: &ErrorState,
+) {
+    #[cfg(target_arch = "arm")]
+    propagate_rows::<SKIP_CLONE, SCALE>(p, f);
+    #[cfg(not(target_arch = "arm"))]
+    propagate_columns::<SKIP_CLONE, SCALE>(p, f);
+    // `Q` has no clone entries.
+    let end = rows_visited(SKIP_CLONE);
+    let [q] = &q.data.0;
+    for (i, (col, qi)) in p.data.0.iter_mut().zip(q).enumerate().take(end) {
+        if let Some(d) = col.get_mut(i) {
+            *d += qi;
+        }
+    }
+}
+
+/// Row `i` of `P F^T` on the position, velocity and attitude columns from
+/// the first 19 entries `r` of row `i` of `P` (all the columns `F` reads):
+/// the same operations in the same order as [`column_passes`]. Applied to
+/// a column of `P F^T` instead, it is that column of `F (P F^T)`.
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn row_of_pft<const SCALE: bool>(f: &Transition, r: &[f32; 19]) -> [f32; 9] {
+    let &[
+        p0,
+        p1,
+        p2,
+        v0,
+        v1,
+        v2,
+        t0,
+        t1,
+        t2,
+        a0,
+        a1,
+        a2,
+        w0,
+        w1,
+        w2,
+        g0,
+        g1,
+        g2,
+        k,
+    ] = r;
+    let dt = f.dt;
+    let t = Vec3::new(t0, t1, t2);
+    let v = Vec3::new(v0, v1, v2)
+        + f.f_vth * t
+        + f.f_vba * Vec3::new(a0, a1, a2)
+        + Vec3::new(g0, g1, g2) * dt;
+    let th = f.f_thth * t - Vec3::new(w0, w1, w2) * dt;
+    let th = if SCALE { th + f.f_thk * k } else { th };
+    [
+        p0 + dt * v0,
+        p1 + dt * v1,
+        p2 + dt * v2,
+        v.x,
+        v.y,
+        v.z,
+        th.x,
+        th.y,
+        th.z,
+    ]
+}
+
+/// The covariance step on Cortex-M, row by row: rows `0..9` of `P F^T`
+/// first (their entries in the columns `9..19` are still `P`'s), then the
+/// rows below, each also stored at its mirror image (rows `0..9` of its
+/// column, contiguous: no separate transposed copy); the clone's rows
+/// skipped when decoupled. Then the 9x9 block `F (P F^T)`: each column's
+/// entries down to the diagonal, each also stored at its mirror image. The
+/// same bits as the column passes.
+#[cfg(target_arch = "arm")]
+fn propagate_rows<const SKIP_CLONE: bool, const SCALE: bool>(p: &mut Covariance, f: &Transition) {
+    let end = rows_visited(SKIP_CLONE);
+    let cols = &mut p.data.0;
+    for i in 0..9 {
+        let new = row_of_pft::<SCALE>(f, &row_head(cols, i));
+        for (j, v) in new.into_iter().enumerate() {
+            set(cols, j, i, v);
+        }
+    }
+    for i in 9..end {
+        let new = row_of_pft::<SCALE>(f, &row_head(cols, i));
+        for (j, v) in new.into_iter().enumerate() {
+            set(cols, j, i, v);
+        }
+        if let Some(top) = cols.get_mut(i).and_then(|c| c.first_chunk_mut::<9>()) {
+            *top = new;
+        }
+    }
+    // The 9x9 block, column `c` from rows 0..19 of the new column `c`:
+    // position rows for every column, velocity rows from column 3 on,
+    // attitude rows from column 6 on (the upper triangle; the unused
+    // products are not computed once inlined).
+    for c in 0..9 {
+        let Some(src) = cols.get(c).and_then(|col| col.first_chunk::<19>()) else {
+            continue;
+        };
+        let new = row_of_pft::<SCALE>(f, src);
+        for (r, v) in new.into_iter().enumerate().take(c + 1) {
+            set(cols, c, r, v);
+            set(cols, r, c, v);
+        }
+    }
+}
+
+/// Entry `(i, j)` of `P` (`0.0` outside; `j` is a constant at every use).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn entry(cols: &[[f32; DIM]; DIM], j: usize, i: usize) -> f32 {
+    cols.get(j).and_then(|c| c.get(i)).copied().unwrap_or(0.0)
+}
+
+/// Sets entry `(i, j)` of `P` (nothing outside).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn set(cols: &mut [[f32; DIM]; DIM], j: usize, i: usize, v: f32) {
+    if let Some(e) = cols.get_mut(j).and_then(|c| c.get_mut(i)) {
+        *e = v;
+    }
+}
+
+/// The first 19 entries of row `i` of `P` (by constant columns).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn row_head(cols: &[[f32; DIM]; DIM], i: usize) -> [f32; 19] {
+    [
+        entry(cols, 0, i),
+        entry(cols, 1, i),
+        entry(cols, 2, i),
+        entry(cols, 3, i),
+        entry(cols, 4, i),
+        entry(cols, 5, i),
+        entry(cols, 6, i),
+        entry(cols, 7, i),
+        entry(cols, 8, i),
+        entry(cols, 9, i),
+        entry(cols, 10, i),
+        entry(cols, 11, i),
+        entry(cols, 12, i),
+        entry(cols, 13, i),
+        entry(cols, 14, i),
+        entry(cols, 15, i),
+        entry(cols, 16, i),
+        entry(cols, 17, i),
+        entry(cols, 18, i),
+    ]
+}
+
+/// The covariance step on hosts: the column passes, the 9x9 block, the
+/// transposed copy.
+#[cfg(not(target_arch = "arm"))]
+fn propagate_columns<const SKIP_CLONE: bool, const SCALE: bool>(
+    p: &mut Covariance,
+    f: &Transition,
 ) {
     let dt = f.dt;
     let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
@@ -417,13 +576,6 @@ fn propagate_blocks<const SKIP_CLONE: bool, const SCALE: bool>(
         let j = j + 9;
         for (dst, src) in col.iter_mut().zip(imu.iter()) {
             *dst = at(src, j);
-        }
-    }
-    // `Q` has no clone entries.
-    let [q] = &q.data.0;
-    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate().take(end) {
-        if let Some(d) = col.get_mut(i) {
-            *d += qi;
         }
     }
 }
