@@ -202,7 +202,10 @@ fn at(column: &[f32; DIM], i: usize) -> f32 {
 /// column follow by symmetry (a transposed copy); only the 9x9 block of
 /// those rows and columns needs the row operations `F (P F^T)`, computed on
 /// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
-/// dense 93,000. The result is exactly symmetric if `P` was.
+/// dense 93,000. The result is exactly symmetric if `P` was. On Cortex-M the
+/// same operations run row by row, each row of `P F^T` also stored at its
+/// mirror image instead of the transposed copy (`propagate_rows`): the
+/// same bits.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
     if f.couples_gyro_scale() {
         propagate_blocks::<false, true>(p, f, q);
