@@ -36,7 +36,7 @@ done
 python3 - "$out" <<'PY'
 import json, statistics, sys
 wanted = [
-    ("ekf_propagate (nominal + 35x35 covariance + clone)", "propagation"),
+    ("ekf_propagate (nominal + 36x36 covariance + clone)", "propagation"),
     ("ekf_wheel update (4 rows, full covariance)", "wheel update (4 rows)"),
     ("ekf_update maths (3 rows_ forward, lateral, vertical; structured", "3-D update"),
 ]

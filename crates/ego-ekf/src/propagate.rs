@@ -64,6 +64,14 @@ impl Transition {
         self
     }
 
+    /// Whether the attitude depends on the gyro's scale factor (`F_thetak`
+    /// not zero). When it does not, the covariance step leaves out the
+    /// products with `F_thetak` (zeros: only the sign of a zero sum can
+    /// differ).
+    pub fn couples_gyro_scale(&self) -> bool {
+        self.f_thk.iter().any(|v| *v != 0.0)
+    }
+
     /// The full `F_x` (for the dense reference and tests).
     pub fn dense(&self) -> Covariance {
         let mut f = Covariance::identity();
@@ -107,49 +115,54 @@ pub fn exp_so3(phi: &Vec3) -> Matrix3<f32> {
 /// block of the state table, the density its [`Drive`] names.
 pub fn process_noise(imu: &ImuConfig, robot: &RobotPrior, dt: f32) -> ErrorState {
     let (scale_walk, imu) = (imu.gyro_scale_random_walk, &imu.noise);
-    let mut q = ErrorState::zeros();
-    for (start, len, drive) in DRIVEN {
-        let density = match drive {
-            Drive::Zero => 0.0,
-            Drive::AccelNoise => imu.accel_density,
-            Drive::GyroNoise => imu.gyro_density,
-            Drive::AccelBiasWalk => imu.accel_random_walk,
-            Drive::GyroBiasWalk => imu.gyro_random_walk,
-            Drive::GyroScaleWalk => scale_walk,
-            Drive::ContactWalk => robot.contact_random_walk,
-            Drive::RotationWalk => robot.rotation_random_walk,
-            Drive::RadiusWalk => robot.radius_random_walk,
-        };
-        q.rows_mut(start, len).fill(density * density * dt);
-    }
-    q
+    // One value per kind of drive (in the order of `drive_slot`), then
+    // each entry picks its block's: a table lookup per entry instead of a
+    // fill per block (the same products, so the same bits).
+    let densities = [
+        0.0,
+        imu.accel_density,
+        imu.gyro_density,
+        imu.accel_random_walk,
+        imu.gyro_random_walk,
+        scale_walk,
+        robot.contact_random_walk,
+        robot.rotation_random_walk,
+        robot.radius_random_walk,
+    ];
+    let values = densities.map(|density| density * density * dt);
+    ErrorState::from_fn(|i, _| {
+        let slot = DRIVE_OF.get(i).copied().unwrap_or(0);
+        values.get(usize::from(slot)).copied().unwrap_or(0.0)
+    })
 }
 
-/// Number of blocks with process noise.
-#[allow(clippy::indexing_slicing)] // k < BLOCKS.len(); evaluated at compile time
-const DRIVEN_COUNT: usize = {
-    let (mut n, mut k) = (0, 0);
-    while k < BLOCKS.len() {
-        if !matches!(BLOCKS[k].drive, Drive::Zero) {
-            n += 1;
-        }
-        k += 1;
+/// The slot of a drive in [`process_noise`]'s table of values.
+const fn drive_slot(drive: Drive) -> u8 {
+    match drive {
+        Drive::Zero => 0,
+        Drive::AccelNoise => 1,
+        Drive::GyroNoise => 2,
+        Drive::AccelBiasWalk => 3,
+        Drive::GyroBiasWalk => 4,
+        Drive::GyroScaleWalk => 5,
+        Drive::ContactWalk => 6,
+        Drive::RotationWalk => 7,
+        Drive::RadiusWalk => 8,
     }
-    n
-};
+}
 
-/// `(start, dimension, drive)` of the blocks with process noise, from the
-/// state table (constants, so the loop of [`process_noise`] unrolls into
-/// stores at fixed rows).
-#[allow(clippy::indexing_slicing)] // n < DRIVEN_COUNT, k < BLOCKS.len(); evaluated at compile time
-const DRIVEN: [(usize, usize, Drive); DRIVEN_COUNT] = {
-    let mut out = [(0, 0, Drive::Zero); DRIVEN_COUNT];
-    let (mut n, mut k) = (0, 0);
+/// For each error-state entry, the [`drive_slot`] of its block (from the
+/// state table, at compile time).
+#[allow(clippy::indexing_slicing)] // i < DIM, k < BLOCKS.len(); evaluated at compile time
+const DRIVE_OF: [u8; DIM] = {
+    let mut out = [0u8; DIM];
+    let mut k = 0;
     while k < BLOCKS.len() {
         let b = BLOCKS[k];
-        if !matches!(b.drive, Drive::Zero) {
-            out[n] = (b.start, b.dim, b.drive);
-            n += 1;
+        let mut i = b.start;
+        while i < b.start + b.dim {
+            out[i] = drive_slot(b.drive);
+            i += 1;
         }
         k += 1;
     }
@@ -173,6 +186,7 @@ const _: () = assert!(P == 0 && V == 3 && TH == 6 && BA == 9 && BG == 12 && G ==
 
 /// Entry `i` of a covariance column (`0.0` outside; never outside for the
 /// loops below, whose `i` runs over `0..DIM`, so the check compiles away).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn at(column: &[f32; DIM], i: usize) -> f32 {
     column.get(i).copied().unwrap_or(0.0)
@@ -188,9 +202,16 @@ fn at(column: &[f32; DIM], i: usize) -> f32 {
 /// column follow by symmetry (a transposed copy); only the 9x9 block of
 /// those rows and columns needs the row operations `F (P F^T)`, computed on
 /// its upper triangle and mirrored. About 1,700 multiply-adds instead of the
-/// dense 93,000. The result is exactly symmetric if `P` was.
+/// dense 93,000. The result is exactly symmetric if `P` was. On Cortex-M the
+/// same operations run row by row, each row of `P F^T` also stored at its
+/// mirror image instead of the transposed copy (`propagate_rows`): the
+/// same bits.
 pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) {
-    propagate_blocks::<false>(p, f, q);
+    if f.couples_gyro_scale() {
+        propagate_blocks::<false, true>(p, f, q);
+    } else {
+        propagate_blocks::<false, false>(p, f, q);
+    }
 }
 
 /// [`propagate_covariance`] for a `P` whose clone is decoupled (its rows
@@ -200,10 +221,15 @@ pub fn propagate_covariance(p: &mut Covariance, f: &Transition, q: &ErrorState) 
 /// same result bit for bit, without the clone's six rows in the column
 /// passes and its six columns in the symmetric copy.
 pub fn propagate_covariance_clone_decoupled(p: &mut Covariance, f: &Transition, q: &ErrorState) {
-    propagate_blocks::<true>(p, f, q);
+    if f.couples_gyro_scale() {
+        propagate_blocks::<true, true>(p, f, q);
+    } else {
+        propagate_blocks::<true, false>(p, f, q);
+    }
 }
 
 /// The first `rows` rows of a column (empty past its end).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
 fn rows_of(rows: usize, column: &[f32; DIM]) -> &[f32] {
     column.get(..rows).unwrap_or(&[])
@@ -218,9 +244,11 @@ const fn rows_visited(skip_clone: bool) -> usize {
 /// The columns of `P F^T` for position, velocity and attitude over the
 /// first `rows` rows (all, or all but a decoupled clone's: skipping them
 /// measured cheaper on Cortex-M; on hosts the whole columns vectorise
-/// better), in the order that reads only old values.
+/// better), in the order that reads only old values. `SCALE`: whether the
+/// attitude reads the gyro scale factor's column (`F_thetak` nonzero).
+#[cfg(not(target_arch = "arm"))]
 #[inline(always)]
-fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
+fn column_passes<const SCALE: bool>(p: &mut Covariance, f: &Transition, rows: usize) {
     let dt = f.dt;
     let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
     {
@@ -318,23 +346,187 @@ fn column_passes(p: &mut Covariance, f: &Transition, rows: usize) {
                 .zip(w_rows)
             {
                 let w = Vec3::new(*w0, *w1, *w2);
-                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt + ftk * *k;
+                let t = ftt * Vec3::new(*c0, *c1, *c2) - w * dt;
+                let t = if SCALE { t + ftk * *k } else { t };
                 (*c0, *c1, *c2) = (t.x, t.y, t.z);
             }
         }
     }
 }
 
-fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, q: &ErrorState) {
+/// The block step; `SCALE` as in [`column_passes`]. On Cortex-M row by
+/// row ([`propagate_rows`]), on hosts by columns (which vectorise).
+fn propagate_blocks<const SKIP_CLONE: bool, const SCALE: bool>(
+    p: &mut Covariance,
+    f: &Transition,
+    q: &ErrorState,
+) {
+    #[cfg(target_arch = "arm")]
+    propagate_rows::<SKIP_CLONE, SCALE>(p, f);
+    #[cfg(not(target_arch = "arm"))]
+    propagate_columns::<SKIP_CLONE, SCALE>(p, f);
+    // `Q` has no clone entries.
+    let end = rows_visited(SKIP_CLONE);
+    let [q] = &q.data.0;
+    for (i, (col, qi)) in p.data.0.iter_mut().zip(q).enumerate().take(end) {
+        if let Some(d) = col.get_mut(i) {
+            *d += qi;
+        }
+    }
+}
+
+/// Row `i` of `P F^T` on the position, velocity and attitude columns from
+/// the first 19 entries `r` of row `i` of `P` (all the columns `F` reads):
+/// the same operations in the same order as [`column_passes`]. Applied to
+/// a column of `P F^T` instead, it is that column of `F (P F^T)`.
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn row_of_pft<const SCALE: bool>(f: &Transition, r: &[f32; 19]) -> [f32; 9] {
+    let &[
+        p0,
+        p1,
+        p2,
+        v0,
+        v1,
+        v2,
+        t0,
+        t1,
+        t2,
+        a0,
+        a1,
+        a2,
+        w0,
+        w1,
+        w2,
+        g0,
+        g1,
+        g2,
+        k,
+    ] = r;
+    let dt = f.dt;
+    let t = Vec3::new(t0, t1, t2);
+    let v = Vec3::new(v0, v1, v2)
+        + f.f_vth * t
+        + f.f_vba * Vec3::new(a0, a1, a2)
+        + Vec3::new(g0, g1, g2) * dt;
+    let th = f.f_thth * t - Vec3::new(w0, w1, w2) * dt;
+    let th = if SCALE { th + f.f_thk * k } else { th };
+    [
+        p0 + dt * v0,
+        p1 + dt * v1,
+        p2 + dt * v2,
+        v.x,
+        v.y,
+        v.z,
+        th.x,
+        th.y,
+        th.z,
+    ]
+}
+
+/// The covariance step on Cortex-M, row by row: rows `0..9` of `P F^T`
+/// first (their entries in the columns `9..19` are still `P`'s), then the
+/// rows below, each also stored at its mirror image (rows `0..9` of its
+/// column, contiguous: no separate transposed copy); the clone's rows
+/// skipped when decoupled. Then the 9x9 block `F (P F^T)`: each column's
+/// entries down to the diagonal, each also stored at its mirror image. The
+/// same bits as the column passes.
+#[cfg(target_arch = "arm")]
+fn propagate_rows<const SKIP_CLONE: bool, const SCALE: bool>(p: &mut Covariance, f: &Transition) {
+    let end = rows_visited(SKIP_CLONE);
+    let cols = &mut p.data.0;
+    for i in 0..9 {
+        let new = row_of_pft::<SCALE>(f, &row_head(cols, i));
+        for (j, v) in new.into_iter().enumerate() {
+            set(cols, j, i, v);
+        }
+    }
+    for i in 9..end {
+        let new = row_of_pft::<SCALE>(f, &row_head(cols, i));
+        for (j, v) in new.into_iter().enumerate() {
+            set(cols, j, i, v);
+        }
+        if let Some(top) = cols.get_mut(i).and_then(|c| c.first_chunk_mut::<9>()) {
+            *top = new;
+        }
+    }
+    // The 9x9 block, column `c` from rows 0..19 of the new column `c`:
+    // position rows for every column, velocity rows from column 3 on,
+    // attitude rows from column 6 on (the upper triangle; the unused
+    // products are not computed once inlined).
+    for c in 0..9 {
+        let Some(src) = cols.get(c).and_then(|col| col.first_chunk::<19>()) else {
+            continue;
+        };
+        let new = row_of_pft::<SCALE>(f, src);
+        for (r, v) in new.into_iter().enumerate().take(c + 1) {
+            set(cols, c, r, v);
+            set(cols, r, c, v);
+        }
+    }
+}
+
+/// Entry `(i, j)` of `P` (`0.0` outside; `j` is a constant at every use).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn entry(cols: &[[f32; DIM]; DIM], j: usize, i: usize) -> f32 {
+    cols.get(j).and_then(|c| c.get(i)).copied().unwrap_or(0.0)
+}
+
+/// Sets entry `(i, j)` of `P` (nothing outside).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn set(cols: &mut [[f32; DIM]; DIM], j: usize, i: usize, v: f32) {
+    if let Some(e) = cols.get_mut(j).and_then(|c| c.get_mut(i)) {
+        *e = v;
+    }
+}
+
+/// The first 19 entries of row `i` of `P` (by constant columns).
+#[cfg(target_arch = "arm")]
+#[inline(always)]
+fn row_head(cols: &[[f32; DIM]; DIM], i: usize) -> [f32; 19] {
+    [
+        entry(cols, 0, i),
+        entry(cols, 1, i),
+        entry(cols, 2, i),
+        entry(cols, 3, i),
+        entry(cols, 4, i),
+        entry(cols, 5, i),
+        entry(cols, 6, i),
+        entry(cols, 7, i),
+        entry(cols, 8, i),
+        entry(cols, 9, i),
+        entry(cols, 10, i),
+        entry(cols, 11, i),
+        entry(cols, 12, i),
+        entry(cols, 13, i),
+        entry(cols, 14, i),
+        entry(cols, 15, i),
+        entry(cols, 16, i),
+        entry(cols, 17, i),
+        entry(cols, 18, i),
+    ]
+}
+
+/// The covariance step on hosts: the column passes, the 9x9 block, the
+/// transposed copy.
+#[cfg(not(target_arch = "arm"))]
+fn propagate_columns<const SKIP_CLONE: bool, const SCALE: bool>(
+    p: &mut Covariance,
+    f: &Transition,
+) {
     let dt = f.dt;
     let (fvt, fva, ftt, ftk) = (&f.f_vth, &f.f_vba, &f.f_thth, &f.f_thk);
-    column_passes(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
+    column_passes::<SCALE>(p, f, rows_visited(SKIP_CLONE && cfg!(target_arch = "arm")));
     let cols = &mut p.data.0;
     // The 9x9 block: F (P F^T) on its rows, column by column, from rows
     // 0..19 of the new columns (the rows BA, BG, G, KG are final already).
     let mut block = [[0.0f32; 9]; 9];
     for (out, col) in block.iter_mut().zip(cols.iter()) {
-        let [
+        // By reference: a pattern on `*col` copies the whole column first
+        // (a `memcpy` of 144 bytes per column on Cortex-M).
+        let &[
             m0,
             m1,
             m2,
@@ -355,14 +547,15 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
             m17,
             m18,
             ..,
-        ] = *col;
+        ] = col;
         let t = Vec3::new(m6, m7, m8);
         let new_p = Vec3::new(m0, m1, m2) + Vec3::new(m3, m4, m5) * dt;
         let new_v = Vec3::new(m3, m4, m5)
             + fvt * t
             + fva * Vec3::new(m9, m10, m11)
             + Vec3::new(m15, m16, m17) * dt;
-        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt + ftk * m18;
+        let new_t = ftt * t - Vec3::new(m12, m13, m14) * dt;
+        let new_t = if SCALE { new_t + ftk * m18 } else { new_t };
         *out = [
             new_p.x, new_p.y, new_p.z, new_v.x, new_v.y, new_v.z, new_t.x, new_t.y, new_t.z,
         ];
@@ -386,13 +579,6 @@ fn propagate_blocks<const SKIP_CLONE: bool>(p: &mut Covariance, f: &Transition, 
         let j = j + 9;
         for (dst, src) in col.iter_mut().zip(imu.iter()) {
             *dst = at(src, j);
-        }
-    }
-    // `Q` has no clone entries.
-    let [q] = &q.data.0;
-    for (i, (col, qi)) in cols.iter_mut().zip(q).enumerate().take(end) {
-        if let Some(d) = col.get_mut(i) {
-            *d += qi;
         }
     }
 }

@@ -11,7 +11,7 @@
 //!
 //! The arithmetic follows the structure, as PX4 EKF2's generated code does:
 //! - `P H^T` only over the columns where `H` is nonzero ([`Support`]; the
-//!   wheel rows touch 20 of the [`DIM`] = 35 columns, the flow rows 18,
+//!   wheel rows touch 20 of the [`DIM`] = 36 columns, the flow rows 18,
 //!   the ZUPT rows 15; the wheel computes it from its factored rows, see
 //!   [`crate::wheel::model::WheelRows::p_ht`]);
 //! - with the Cholesky factor `S = L L^T`, `W = P H^T L^-T` gives
