@@ -6,10 +6,18 @@
 //! 0.075-0.146 rad on seeds 1000-1005 (cargo test -p ego-ekf --release
 //! --test yaw_unobservable -- --ignored --nocapture); with the IMU mounted
 //! level (rotation prior 1e-6 rad) or the tilt known to 1e-5 rad it is
-//! 0.076-0.185 rad after 1 s (measured with this test so changed). The first wheel
-//! update at rest already removes a quarter of the yaw variance: before
-//! it, the velocity-yaw covariance is not the one the unobservable
-//! direction implies (`sigma^2 [e_z]x (v - v_0)`).
+//! 0.076-0.185 rad after 1 s (measured with this test so changed). The
+//! wheel updates do it: without them (zero-velocity updates only) the yaw
+//! stays at 0.200 rad; without the zero-velocity updates it still falls
+//! (0.081-0.150 rad). The first wheel update at rest removes a quarter of
+//! the yaw variance. The propagation's velocity-yaw covariance equals its
+//! first-order prediction `-R [a]x e_z dt sigma^2` step by step; the
+//! wheel rows' attitude column `R_rb [v_b]x` is evaluated at the estimated
+//! velocity, which is not zero while the true one is (the start's
+//! velocity error, the integrated accelerometer noise), so the rows see
+//! the yaw where the truth's would not: the linearisation-point
+//! inconsistency that first-estimate or observability-constrained
+//! Jacobians remove (Huang et al. 2010; Hesch et al. 2014).
 
 mod support;
 
