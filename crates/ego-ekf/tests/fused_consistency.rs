@@ -38,7 +38,8 @@
 //! and the flow (from 4000: yaw 1.44, position 3.75): the yaw variance
 //! falls below its prior (1e-4 rad^2 to 8.3e-5 in 60 s), and with a yaw
 //! prior of 0.2 rad it falls to 0.13 rad in the first second, the robot
-//! standing still (zero-velocity and wheel updates), which a filter in
+//! standing still (the wheel updates; `tests/yaw_unobservable.rs`), which
+//! a filter in
 //! which absolute yaw is
 //! unobservable must never do; the EKF's Jacobians evaluated at changing
 //! estimates give it spurious yaw information (Huang, Mourikis &
