@@ -39,9 +39,8 @@
 //! falls below its prior (1e-4 rad^2 to 8.3e-5 in 60 s), and with a yaw
 //! prior of 0.2 rad it falls to 0.13 rad in the first second, the robot
 //! standing still (the wheel updates; `tests/yaw_unobservable.rs`), which
-//! a filter in
-//! which absolute yaw is
-//! unobservable must never do; the EKF's Jacobians evaluated at changing
+//! a filter in which absolute yaw is unobservable must never do; the EKF's
+//! Jacobians evaluated at changing
 //! estimates give it spurious yaw information (Huang, Mourikis &
 //! Roumeliotis, "Observability-based rules for designing consistent EKF
 //! SLAM estimators", IJRR 2010; Hesch et al., "Consistency analysis and
