@@ -4,6 +4,8 @@
 //! sensor at 25 Hz. Seeded, deterministic.
 #![allow(dead_code)]
 
+pub mod monte_carlo;
+
 use ego_ekf::state::{Quat, STANDARD_GRAVITY, Vec3};
 use nalgebra::UnitQuaternion;
 use vslam_core::Timestamp;
@@ -119,6 +121,10 @@ pub struct Sim {
     k: u64,
     flow_acc: [f64; 2],
     pub with_flow: bool,
+    /// The gyro's z scale-factor error `k` (it reads `(1 + k) w_z + b_z`).
+    pub gyro_scale: f64,
+    /// Random walk of `k`, 1/sqrt(s).
+    pub gyro_scale_random_walk: f64,
     pub drive_time: f64,
     pub stop_time: f64,
 }
@@ -153,6 +159,8 @@ impl Sim {
             k: 0,
             flow_acc: [0.0; 2],
             with_flow: false,
+            gyro_scale: 0.0,
+            gyro_scale_random_walk: 0.0,
             drive_time: 6.0,
             stop_time: 1.5,
         }
@@ -248,7 +256,8 @@ impl Sim {
         let a = a_o + wd.cross(&arm) + w.cross(&w.cross(&arm));
         let g = nalgebra::Vector3::new(0.0, 0.0, -(STANDARD_GRAVITY as f64));
         let f_b = r_wb.transpose() * (a - g);
-        let w_b = r_wb.transpose() * w;
+        let mut w_b = r_wb.transpose() * w;
+        w_b.z *= 1.0 + self.gyro_scale;
         self.substep(0.5 * dt, v_dot, r_dot);
         if self.v.abs() < 1e-12 {
             self.v = 0.0;
@@ -274,6 +283,9 @@ impl Sim {
         let (da, dg) = (self.rng.vec3(ra), self.rng.vec3(rg));
         self.noise.accel_bias += da;
         self.noise.gyro_bias += dg;
+        if self.gyro_scale_random_walk > 0.0 {
+            self.gyro_scale += self.gyro_scale_random_walk * dt.sqrt() * self.rng.normal();
+        }
 
         // Wheels at 50 Hz: forward speed of each contact point, robot frame.
         let wheel = self.k.is_multiple_of(5).then(|| {
