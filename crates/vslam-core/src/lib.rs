@@ -63,6 +63,7 @@
 pub mod adverse;
 pub mod corners;
 pub mod decompose;
+pub mod disagree;
 pub mod fsqrt;
 pub mod geometry;
 pub mod homography;
