@@ -39,7 +39,9 @@ use ego_ekf::surface::{MapError, SurfaceModel};
 use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
 use heapless::Deque;
 use vslam_core::adverse::{AdverseError, AdverseKind, SensorKind};
+use vslam_core::flow_frames::{FramePairMotion, raw_optics};
 use vslam_core::image::{ImageView, LabelView};
+use vslam_core::scale::flow::FlowStep;
 use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, WheelTicks};
 use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
@@ -358,6 +360,36 @@ impl<'b> Estimator<'b> {
             let _ = self.ekf.distrust_wheels_until(until, factor);
         }
         Ok(Some(decision))
+    }
+
+    /// Processes one raw frame of the flow sensor grabbed at `t`, as the
+    /// caller's [`FrameFlow`](vslam_core::flow_frames::FrameFlow) tracked it
+    /// against the previous frame (`None`: the first frame, nothing to
+    /// compare with), after every buffered sample up to `t`: the features'
+    /// robust displacement becomes the scale pipeline's flow transaction `To`
+    /// ([`ScalePipeline::push_raw_flow`], with the counting optics' height and
+    /// mounting). Counted under [`Stream::FlowFrame`].
+    pub fn process_flow_frame(
+        &mut self,
+        t: Timestamp,
+        pair: Option<&FramePairMotion>,
+    ) -> Result<FlowStep, Reject> {
+        while self.poll_until(t).is_some() {}
+        let optics = self
+            .scale
+            .config()
+            .flow_optics
+            .as_ref()
+            .and_then(raw_optics);
+        let outcome = match (pair, optics) {
+            (Some(pair), Some(optics)) => {
+                self.scale
+                    .push_raw_flow(pair.t0, pair.t1, pair.features(), &optics)
+            }
+            _ => Err(Reject::NotReady),
+        };
+        self.counts[Stream::FlowFrame].record(outcome.map(|_| ()));
+        outcome
     }
 
     /// Processes a segmentation map of the forward camera taken at `t`.

@@ -26,6 +26,8 @@ enum Entry {
     Camera,
     /// [`Estimator::process_segmentation`].
     Segmentation,
+    /// [`Estimator::process_flow_frame`].
+    FlowFrame,
     /// Not taken by the estimator yet: only refused reads are counted
     /// ([`Estimator::reject_read`]).
     NotTaken,
@@ -37,7 +39,8 @@ fn entry(s: Stream) -> Entry {
         Stream::Imu | Stream::Wheel | Stream::Flow => Entry::Offer,
         Stream::Camera => Entry::Camera,
         Stream::Segmentation => Entry::Segmentation,
-        Stream::FlowFrame | Stream::ForwardCamera => Entry::NotTaken,
+        Stream::FlowFrame => Entry::FlowFrame,
+        Stream::ForwardCamera => Entry::NotTaken,
     }
 }
 
@@ -104,6 +107,13 @@ fn every_sample_of_every_stream_ends_in_one_count_of_its_stream() {
                         est.process_segmentation(Timestamp(t), &labels),
                         Err(Reject::NotReady)
                     );
+                }
+                Entry::FlowFrame => {
+                    // A first frame: nothing to track against; refused, and counted.
+                    assert!(matches!(
+                        est.process_flow_frame(Timestamp(t), None),
+                        Err(Reject::NotReady)
+                    ));
                 }
                 Entry::NotTaken => est.reject_read(s, Reject::Bus),
             }

@@ -1,6 +1,6 @@
 //! ASL `data.csv` reading through `host_sim::asl::read_dataset`: the first
 //! byte picks the sensor folder (IMU, wheels, flow, camera, segmentation,
-//! ground truth), the rest is that folder's `data.csv` (for `wheel0`,
+//! ground truth, the flow sensor's raw frames), the rest is that folder's `data.csv` (for `wheel0`,
 //! counts or, after the rates header, the wheel angular-rate variant); the `sensor.yaml`
 //! next to it is valid. The first byte also picks how bad sample values are
 //! read (`BadSamples`): refused, a read either gives strictly increasing
@@ -18,13 +18,14 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use traction_fuzz::scratch_dir;
 
-const SENSORS: [&str; 6] = [
+const SENSORS: [&str; 7] = [
     "imu0",
     "wheel0",
     "flow0",
     "cam0",
     "seg0",
     "state_groundtruth_estimate0",
+    "flowraw0",
 ];
 
 const IDENTITY: [f32; 16] = [
@@ -82,7 +83,7 @@ fn write_meta(sensor: &str, path: &Path) {
             wheel_type: "soft_rubber".into(),
         }
         .write(path),
-        "flow0" => FlowMeta {
+        "flow0" | "flowraw0" => FlowMeta {
             rate_hz: 100.0,
             t_bs: IDENTITY,
             height: 0.03,
@@ -151,6 +152,10 @@ fuzz_target!(|data: &[u8]| {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
             }
             if let Some((_, v)) = &ds.cam {
+                assert!(increasing(v.iter().map(|s| s.t.0)));
+                assert!(v.iter().all(|e| e.path.is_file()));
+            }
+            if let Some((_, v)) = &ds.flowraw {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
                 assert!(v.iter().all(|e| e.path.is_file()));
             }

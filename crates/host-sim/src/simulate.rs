@@ -13,7 +13,7 @@ use crate::faults::{FaultPlan, Stage, Stream, inject};
 use crate::plot::Scene;
 use crate::progress::Progress;
 use crate::replay::{
-    Feed, ReplayOptions, ReplayOutput, replay_feed, run_replay_with, write_outputs,
+    Feed, FlowSource, ReplayOptions, ReplayOutput, replay_feed, run_replay_with, write_outputs,
 };
 use crate::sim::scenario::{SCENARIOS, Scenario, generate_with};
 use std::collections::HashMap;
@@ -51,6 +51,24 @@ pub fn scenario_for(name: &str, duration: Option<f64>) -> Result<Scenario, CliEr
     }
 }
 
+/// With `--flow-source frames`, the flow sensor's raw frames of the run
+/// ([`crate::sim::flow_frames::record`]) join the log as `flowraw0`.
+fn record_flow_frames(
+    sc: &Scenario,
+    truth: &[crate::sim::motion::TruthStep],
+    seed: u64,
+    dataset: &Path,
+    options: &ReplayOptions,
+    ds: &mut crate::asl::Dataset,
+) -> Result<(), CliError> {
+    if options.flow_source == Some(FlowSource::Frames) {
+        ds.flowraw = Some(crate::sim::flow_frames::record(
+            &sc.world, &sc.flow, truth, seed, dataset,
+        )?);
+    }
+    Ok(())
+}
+
 /// Runs scenario `name` with `seed` into `out`.
 pub fn run_simulate(
     name: &str,
@@ -81,13 +99,14 @@ pub fn simulate_scenario_with(
 ) -> Result<ReplayOutput, CliError> {
     let dataset = out.join("dataset");
     clear(&dataset)?;
-    let (ds, _truth, _) = generate_with(
+    let (mut ds, truth, _) = generate_with(
         scenario,
         seed,
         &dataset,
         &FaultPlan::none(),
         &Progress::new(progress),
     )?;
+    record_flow_frames(scenario, &truth, seed, &dataset, &options, &mut ds)?;
     write_dataset(&dataset, &ds)?;
     Scene::of(scenario).write(&dataset)?;
     run_replay_with(&dataset, out, progress, options)
@@ -144,8 +163,9 @@ pub fn simulate_faults_with(
     let dataset = out.join("dataset");
     clear(&dataset)?;
     let sc = crate::faults::scenario::apply(plan, sc);
-    let (mut ds, _truth, generated) =
+    let (mut ds, truth, generated) =
         generate_with(&sc, seed, &dataset, plan, &Progress::new(progress))?;
+    record_flow_frames(&sc, &truth, seed, &dataset, &options, &mut ds)?;
     let mut log = FaultLog {
         plan: plan.clone(),
         injected: generated.injected,

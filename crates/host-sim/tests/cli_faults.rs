@@ -2,12 +2,10 @@
 //! kind, a bad list is a usage error (exit 2), and a run writes the `faults`
 //! section of `report.json` whose counts match the report's own counts.
 
-use serde_json::Value;
-use std::process::Command;
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use serde_json::Value;
 
 #[test]
 fn help_lists_the_syntax_and_every_kind() {
@@ -69,11 +67,7 @@ fn report_json_counts_what_was_injected() {
         .arg(&dir)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_ok(&out);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("flow-limit@5x3"), "{stdout}");
     let report: Value =

@@ -6,15 +6,14 @@
 //! corrupt file is refused on stderr, kept aside, and the run goes on with
 //! an empty memory (its decisions equal the first run's).
 
+mod common;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-cli-memory-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-cli-memory", name)
 }
 
 /// `simulate --scenario slip --duration 12 --seed 1 --memory memory` into `out`.

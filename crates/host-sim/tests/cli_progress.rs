@@ -2,20 +2,13 @@
 //! pipe (as here) `simulate`, `simulate --faults` and `replay` write nothing
 //! to it.
 
-use std::process::{Command, Output};
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use std::process::Output;
 
 fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "host-sim-cli-progress-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-cli-progress", name)
 }
 
 /// `run` succeeded and drew nothing on stderr: no carriage returns or

@@ -1,16 +1,10 @@
 //! `host-sim simulate` and `host-sim replay` as a user runs them.
 
-use std::process::Command;
-
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+mod common;
+use common::host_sim;
 
 fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-cli-replay-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-cli-replay", name)
 }
 
 #[test]
@@ -21,11 +15,7 @@ fn simulate_then_replay_prints_the_summary_and_writes_every_file() {
         .arg(&out)
         .output()
         .unwrap();
-    assert!(
-        sim.status.success(),
-        "{}",
-        String::from_utf8_lossy(&sim.stderr)
-    );
+    common::assert_ok(&sim);
     let text = String::from_utf8_lossy(&sim.stdout);
     for row in [
         "ekf ",
@@ -37,18 +27,7 @@ fn simulate_then_replay_prints_the_summary_and_writes_every_file() {
         assert!(text.contains(row), "summary lacks `{row}`:\n{text}");
     }
     let again = out.join("again");
-    let rep = host_sim()
-        .arg("replay")
-        .arg(out.join("dataset"))
-        .arg("--out")
-        .arg(&again)
-        .output()
-        .unwrap();
-    assert!(
-        rep.status.success(),
-        "{}",
-        String::from_utf8_lossy(&rep.stderr)
-    );
+    common::replay(&out.join("dataset"), &again, &[]);
     for f in [
         "ekf.tum",
         "vslam.tum",

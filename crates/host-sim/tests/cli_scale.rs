@@ -5,19 +5,15 @@
 //! sources follow the method's rule, the applied scale is the pair's own or
 //! the running one) and for a sane camera-path ATE.
 
+mod common;
+use common::host_sim;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
-
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-cli-scale-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-cli-scale", name)
 }
 
 fn run(cmd: &mut Command) {

@@ -4,19 +4,15 @@
 //! office's cable it stops, backs off, goes round and still reaches the
 //! waypoint beyond, while the fixed-threshold robot stops too.
 
+mod common;
+
 use host_sim::closed_loop::{LoopOptions, run_waypoints};
 use host_sim::sim::scenario::Scenario;
 use std::path::PathBuf;
 use traction::navigate::Policy;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "host-sim-closed-loop-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-closed-loop", name)
 }
 
 /// An L on the wood before the cable: 1.2 m ahead, a quarter turn, 0.5 m left.

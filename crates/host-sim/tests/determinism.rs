@@ -23,6 +23,8 @@
 //! simulator uses the host's `f64` `sin`/`cos`); it was written on
 //! x86_64-unknown-linux-gnu, where CI runs.
 
+mod common;
+
 use host_sim::asl::write_dataset;
 use host_sim::replay::run_replay;
 use host_sim::sim::scenario::{Scenario, generate};
@@ -46,10 +48,7 @@ const REPLAY_FILES: [&str; 5] = [
 ];
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-det-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-det", name)
 }
 
 /// The first line where `a` and `b` differ (1-based), with both versions.

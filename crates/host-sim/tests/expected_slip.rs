@@ -7,6 +7,8 @@
 //! without it (`ReplayOptions::expected_slip` false) it keeps most of the
 //! carpet's over-count.
 
+mod common;
+
 use host_sim::replay::ReplayOptions;
 use host_sim::sim::motion::{TRUTH_STEP_NS, TruthStep, integrate, surface_slip};
 use host_sim::sim::scenario::Scenario;
@@ -15,10 +17,7 @@ use host_sim::simulate::simulate_scenario_with;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-slip-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-slip", name)
 }
 
 /// The wheel interval before each sample (20 ms at 50 Hz).

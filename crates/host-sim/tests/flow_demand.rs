@@ -4,6 +4,8 @@
 //! the whole run, woken by the slip episodes, and the filter's trajectory
 //! error stays within 5 % of the always-on run's (or below it).
 
+mod common;
+
 use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, ReplayOutput, replay_with};
 use host_sim::simulate::run_simulate;
@@ -11,13 +13,7 @@ use std::path::PathBuf;
 use traction::flow_demand::FlowDemandConfig;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "host-sim-flow-demand-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-flow-demand", name)
 }
 
 fn ekf_error(o: &ReplayOutput) -> (f64, f64) {

@@ -7,6 +7,8 @@
 //! estimate reports is the corrected rate: within a fraction of the 1 %
 //! error of the raw gyro's.
 
+mod common;
+
 use host_sim::asl::{Dataset, read_dataset};
 use host_sim::replay::{ReplayOptions, ReplayOutput, replay_with};
 use host_sim::sim::scenario::Scenario;
@@ -20,10 +22,7 @@ const SCALE_ERROR: f64 = 0.01;
 const SPAN: (u64, u64) = (5_000_000_000, 60_000_000_000);
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-gyro-scale-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-gyro-scale", name)
 }
 
 fn wrap(a: f64) -> f64 {

@@ -2,24 +2,17 @@
 //! the first 10 s of BorealTC SNOW sequence 10, CC0 data), then `replay`:
 //! the wheel speeds reach the estimator as the `wheel0` rates variant.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use std::path::{Path, PathBuf};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-import-bt-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-import-bt", name)
 }
 
 fn excerpt(file: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data/real/borealtc/SNOW")
-        .join(file)
+    common::repo_data("real/borealtc/SNOW").join(file)
 }
 
 fn import(out: &Path, extra: &[&str]) -> std::process::Output {
@@ -51,11 +44,7 @@ fn speeds() -> Vec<(f64, f64, f64)> {
 fn the_excerpt_replays_with_wheel_rates_and_its_terrain() {
     let d = tmp("ok");
     let imp = import(&d.join("ds"), &[]);
-    assert!(
-        imp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imp.stderr)
-    );
+    common::assert_ok(&imp);
     let csv = std::fs::read_to_string(d.join("ds/mav0/wheel0/data.csv")).unwrap();
     let mut lines = csv.lines();
     assert_eq!(
@@ -78,26 +67,13 @@ fn the_excerpt_replays_with_wheel_rates_and_its_terrain() {
     );
     assert!(!yaml.contains("ticks_per_revolution"), "{yaml}");
 
-    let rep = host_sim()
-        .arg("replay")
-        .arg(d.join("ds"))
-        .arg("--out")
-        .arg(d.join("out"))
-        .output()
-        .unwrap();
-    assert!(
-        rep.status.success(),
-        "{}",
-        String::from_utf8_lossy(&rep.stderr)
-    );
-    let text = String::from_utf8_lossy(&rep.stdout);
+    let text = common::replay(&d.join("ds"), &d.join("out"), &[]);
     assert!(text.contains("terrain: SNOW"), "{text}");
     assert!(
         text.contains("EKF: IMU at 100.0 Hz; started 0.51 s after the first IMU sample"),
         "{text}"
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("out/report.json")).unwrap()).unwrap();
+    let report = common::report(&d.join("out"));
     assert_eq!(report["labels"]["terrain"], "SNOW");
     // Every wheel sample reaches the estimator; once the EKF runs it fuses
     // or gates them. The Husky drives off at once and vibrates: the filter

@@ -1,22 +1,17 @@
 //! `host-sim import optiodom` on the committed excerpt (`data/real/optiodom`:
 //! the first 20 s of an OptiOdom square run, MIT), then `replay`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-import-oo-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-import-oo", name)
 }
 
 fn excerpt() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/real/optiodom")
+    common::repo_data("real/optiodom")
 }
 
 /// Dead reckoning by the midpoint rule straight from the run file (right
@@ -46,29 +41,13 @@ fn the_excerpt_replays_to_the_wheels_dead_reckoning() {
         .arg(d.join("ds"))
         .output()
         .unwrap();
-    assert!(
-        imp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imp.stderr)
-    );
+    common::assert_ok(&imp);
     let csv = std::fs::read_to_string(d.join("ds/mav0/wheel0/data.csv")).unwrap();
     assert!(csv.starts_with("#timestamp [ns],left [ticks],right [ticks]\n"));
     // Row 3 of the run has odoR 6, odoL 5 (right first): cumulative left 5, right 6.
     assert_eq!(csv.lines().nth(3), Some("100000000,5,6"));
 
-    let rep = host_sim()
-        .arg("replay")
-        .arg(d.join("ds"))
-        .arg("--out")
-        .arg(d.join("out"))
-        .output()
-        .unwrap();
-    assert!(
-        rep.status.success(),
-        "{}",
-        String::from_utf8_lossy(&rep.stderr)
-    );
-    let text = String::from_utf8_lossy(&rep.stdout);
+    let text = common::replay(&d.join("ds"), &d.join("out"), &[]);
     assert!(text.contains("reference: optitrack"), "{text}");
     assert!(
         text.contains("the wheel-only trajectory is the estimate"),
@@ -95,8 +74,7 @@ fn the_excerpt_replays_to_the_wheels_dead_reckoning() {
     assert!(dyaw < 1e-3, "yaw {yaw} vs {th}");
 
     // Against OptiTrack over these 20 s (measured: ATE 0.011 m, final 0.012 m).
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("out/report.json")).unwrap()).unwrap();
+    let report = common::report(&d.join("out"));
     let e = &report["errors"]["wheel_only"];
     let ate = e["ate_rmse_m"].as_f64().unwrap();
     let fin = e["final_error_m"].as_f64().unwrap();

@@ -3,31 +3,21 @@
 //! Figures checked against the data's README: message counts, the stamp
 //! grids, the mean vertical specific force, the odometry's path length.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use std::path::{Path, PathBuf};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-import-rb-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-import-rb", name)
 }
 
 fn bag() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/real/rl/test2.bag")
+    common::repo_data("real/rl/test2.bag")
 }
 
 fn rows(path: &Path) -> Vec<Vec<f64>> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect()
+    common::csv_rows(path)
 }
 
 fn import(bag: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -45,11 +35,7 @@ fn import(bag: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 fn the_bag_imports_and_replays() {
     let d = tmp("ok");
     let imp = import(&bag(), &d.join("ds"), &[]);
-    assert!(
-        imp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imp.stderr)
-    );
+    common::assert_ok(&imp);
     let imu = rows(&d.join("ds/mav0/imu0/data.csv"));
     let wheel = rows(&d.join("ds/mav0/wheel0/data.csv"));
     assert_eq!((imu.len(), wheel.len()), (3061, 3060));
@@ -74,20 +60,8 @@ fn the_bag_imports_and_replays() {
         "{labels}"
     );
 
-    let rep = host_sim()
-        .arg("replay")
-        .arg(d.join("ds"))
-        .arg("--out")
-        .arg(d.join("out"))
-        .output()
-        .unwrap();
-    assert!(
-        rep.status.success(),
-        "{}",
-        String::from_utf8_lossy(&rep.stderr)
-    );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("out/report.json")).unwrap()).unwrap();
+    common::replay(&d.join("ds"), &d.join("out"), &[]);
+    let report = common::report(&d.join("out"));
     assert_eq!(report["counts"]["imu"]["seen"], 3061);
     assert_eq!(report["counts"]["wheel"]["seen"], 3060);
 }
@@ -251,11 +225,7 @@ fn gps_fixes_become_an_enu_reference_and_tf_static_mounts_the_imu() {
         &messages,
     );
     let out = import(&bag, &d.join("ds"), &[]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_ok(&out);
     let yaml = std::fs::read_to_string(d.join("ds/mav0/imu0/sensor.yaml")).unwrap();
     // A quarter turn about z and the lever arm: row 1 is [0, -1, 0, 0.1].
     assert!(

@@ -4,6 +4,8 @@
 //! own filter would), and with the IMU mounted turned 90 degrees about
 //! x (`T_BS` says so, the samples are in the turned frame).
 
+mod common;
+
 use host_sim::asl::{Dataset, write_dataset};
 use host_sim::replay::{ReplayOutput, imu_rate_hz, run_replay};
 use host_sim::sim::scenario::{Scenario, generate};
@@ -12,10 +14,7 @@ use traction::vslam_core::Timestamp;
 use traction::vslam_core::sensors::RawImuSample;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-imuv-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-imuv", name)
 }
 
 fn simulated(root: &Path) -> Dataset {

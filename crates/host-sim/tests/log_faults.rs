@@ -7,6 +7,8 @@
 //! exactly what was injected, its EKF trajectory stays within 1.2x (+1 cm)
 //! of the clean log's ATE, and `--strict` refuses it with exit 2.
 
+mod common;
+
 use host_sim::asl::write_dataset;
 use host_sim::replay::{ReplayOptions, run_replay_with};
 use host_sim::sim::scenario::{Scenario, generate};
@@ -16,10 +18,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-logf-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-logf", name)
 }
 
 /// Index of the first data row (0-based among all lines) at or after `t_ns`.

@@ -4,18 +4,14 @@
 //! CC0), pinned to the values they measured: `calibrate`, `replay --wheels`,
 //! `terrain-stats` and report.json `aids`.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::host_sim;
 
-fn host_sim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-real-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-real", name)
 }
 
 fn real(p: &str) -> PathBuf {

@@ -29,6 +29,8 @@
 //! Without Chromium the test fails when `CI` is set and is skipped
 //! otherwise. Each Chromium run is killed after 60 s.
 
+mod common;
+
 use host_sim::faults::FaultPlan;
 use host_sim::plot::EKF_COLOUR;
 use host_sim::plot::html::FIGURE_FRAME;
@@ -44,10 +46,7 @@ const WIDTH: u32 = 1200;
 const HEIGHT: u32 = 4500;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-it-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-it", name)
 }
 
 /// The Chromium binary: `chromium` on the PATH.

@@ -2,6 +2,8 @@
 //! files describe exactly `RobotDescription::robot_vacuum()`, so the replay's
 //! configuration of simulated data is the preset's.
 
+mod common;
+
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::robot_description;
 use host_sim::sim::scenario::{Scenario, generate};
@@ -10,10 +12,7 @@ use traction::estimator::EstimatorConfig;
 use traction::vslam_core::robot::{RobotDescription, RobotError};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-robot-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-robot", name)
 }
 
 fn simulated(name: &str) -> (PathBuf, host_sim::asl::Dataset) {

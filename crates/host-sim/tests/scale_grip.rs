@@ -5,6 +5,8 @@
 //! surface model: on carpet the wheels get clearly less confidence with it,
 //! on wood the same.
 
+mod common;
+
 use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::simulate::run_simulate;
@@ -12,10 +14,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("host-sim-scale-grip-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-scale-grip", name)
 }
 
 /// `(t ns, wheel confidence)` of every frame pair.

@@ -8,6 +8,8 @@
 //! its forward rows; without it, none is distrusted and the filter fuses
 //! wheel samples the scale pipeline had judged.
 
+mod common;
+
 use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::simulate::run_simulate;
@@ -15,13 +17,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "host-sim-scale-wheels-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("host-sim-scale-wheels", name)
 }
 
 /// `(from, until]` of every verdict against the wheels: one frame interval

@@ -2,6 +2,8 @@
 //! (`cam1`): the replay labels the frames with the reference floor model and
 //! the surface model uses those maps; without `cam1` there is no surface.
 
+mod common;
+
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::sim::scenario::{Scenario, generate};
@@ -9,10 +11,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-cam1-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-cam1", name)
 }
 
 fn surfaces(report: &Value) -> Vec<(String, String)> {

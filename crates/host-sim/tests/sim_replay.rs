@@ -1,16 +1,15 @@
 //! End to end on the simulator: a scenario is generated as an ASL dataset,
 //! replayed through `traction::Estimator`, and judged against the truth.
 
+mod common;
+
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::{ReplayOutput, replay, run_replay};
 use host_sim::sim::scenario::{Scenario, generate};
 use std::path::{Path, PathBuf};
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-it-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-it", name)
 }
 
 /// The slip scenario cut to its first `seconds` (its first slip episode is at 8-11 s).

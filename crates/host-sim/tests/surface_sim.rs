@@ -2,6 +2,8 @@
 //! explained by the surface model, the cable on the wood is not; a fixed
 //! jolt threshold (no surface model) cannot tell them apart.
 
+mod common;
+
 use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::simulate::run_simulate;
@@ -9,10 +11,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("traction-surface-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch("traction-surface", name)
 }
 
 /// `(t [s], kind, surface)` of every jolt event in a report.

@@ -12,7 +12,8 @@
 //! - the vision front end: [`image`] views, image [`pyramid`]s, Shi-Tomasi
 //!   [`corners`], the pyramidal Lucas-Kanade tracker [`lk`], [`homography`]
 //!   estimation (four-point, normalised DLT, RANSAC, refinement) and its
-//!   [`decompose`]ition into `{R, t/d, n}`;
+//!   [`decompose`]ition into `{R, t/d, n}`; [`flow_frames`]: corners and
+//!   Lucas-Kanade on a flow sensor's raw 35x35 frames;
 //! - metric scale: [`scale`] (transactions, slip, selection, running scale,
 //!   [`scale::ScalePipeline`]), [`adverse`] (where sensors went wrong) and
 //!   [`pose`] (trajectory composition).
@@ -64,6 +65,7 @@ pub mod adverse;
 pub mod corners;
 pub mod decompose;
 pub mod disagree;
+pub mod flow_frames;
 pub mod fsqrt;
 pub mod geometry;
 pub mod homography;

@@ -9,6 +9,7 @@
 //! | `wheel0` | `#timestamp [ns],left [ticks],right [ticks]` (cumulative) |
 //! | `wheel0`, rates | `#timestamp [ns],left [rad s^-1],right [rad s^-1]` (wheel angular rates at the time stamp, positive forward; `sensor.yaml` without `ticks_per_revolution`) |
 //! | `flow0` | `#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter` |
+//! | `flowraw0` | `#timestamp [ns],filename,shutter` (the flow sensor's raw 35x35 frames, one 8-bit gray PNG per grab in `data/`; the shutter register at the grab; `sensor.yaml` as `flow0`'s, `rate_hz` the grab rate) |
 //! | `cam0`, `seg0`, `cam1` | `#timestamp [ns],filename` (images in `data/`) |
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
 //!
@@ -47,6 +48,8 @@ pub const WHEEL_HEADER: &str = "#timestamp [ns],left [ticks],right [ticks]";
 pub const WHEEL_RATES_HEADER: &str = "#timestamp [ns],left [rad s^-1],right [rad s^-1]";
 /// Header of `flow0/data.csv`.
 pub const FLOW_HEADER: &str = "#timestamp [ns],delta_x [counts],delta_y [counts],squal,shutter";
+/// Header of `flowraw0/data.csv`.
+pub const FLOWRAW_HEADER: &str = "#timestamp [ns],filename,shutter";
 /// Header of `cam0/data.csv` and `seg0/data.csv`.
 pub const IMAGE_HEADER: &str = "#timestamp [ns],filename";
 /// Header of `state_groundtruth_estimate0/data.csv`.
@@ -78,6 +81,17 @@ pub struct GroundTruth {
     pub bias_accel: [f64; 3],
 }
 
+/// One raw frame of the flow sensor (`flowraw0`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlowFrameEntry {
+    /// When the frame was grabbed.
+    pub t: Timestamp,
+    /// Path of the PNG (absolute or relative to the working directory).
+    pub path: PathBuf,
+    /// The shutter register at the grab.
+    pub shutter: u16,
+}
+
 /// A whole dataset in memory (images stay on disk, by path).
 #[derive(Clone, Debug, Default)]
 pub struct Dataset {
@@ -89,6 +103,8 @@ pub struct Dataset {
     pub wheel_rates: Option<(WheelMeta, Vec<RawWheelRates>)>,
     /// Optical-flow stream.
     pub flow: Option<(FlowMeta, Vec<FlowSample>)>,
+    /// The flow sensor's raw frames.
+    pub flowraw: Option<(FlowMeta, Vec<FlowFrameEntry>)>,
     /// Upward camera frames.
     pub cam: Option<(CameraMeta, Vec<ImageEntry>)>,
     /// Segmentation label maps.
@@ -247,6 +263,10 @@ pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliErr
         }
         ds.flow = Some((meta, v));
     }
+    if let Some(d) = sensor_dir(root, "flowraw0") {
+        let meta = FlowMeta::read(&d.join("sensor.yaml"))?;
+        ds.flowraw = Some((meta, read_flow_frames(&d)?));
+    }
     if let Some(d) = sensor_dir(root, "cam0") {
         let meta = CameraMeta::read(&d.join("sensor.yaml"))?;
         ds.cam = Some((meta, read_images(&d)?));
@@ -286,20 +306,41 @@ const IMU_COLUMNS: [&str; 6] = [
     "w_RS_S_x", "w_RS_S_y", "w_RS_S_z", "a_RS_S_x", "a_RS_S_y", "a_RS_S_z",
 ];
 
+/// The file a row's `filename` column names under `dir/data/`; a missing
+/// one is an error naming the `data.csv` line (`what` says what it is).
+fn existing_file(dir: &Path, csv: &Path, r: &csvio::Row, what: &str) -> Result<PathBuf, CliError> {
+    let name = r.field(csv, 0, "filename")?;
+    let file = dir.join("data").join(name);
+    if !file.is_file() {
+        return Err(CliError::line(
+            csv,
+            r.line,
+            format!("{what} `{}` does not exist", file.display()),
+        ));
+    }
+    Ok(file)
+}
+
 fn read_images(dir: &Path) -> Result<Vec<ImageEntry>, CliError> {
     let p = dir.join("data.csv");
     let mut v = Vec::new();
     for r in csvio::read_rows(&p, 2)? {
-        let name = r.field(&p, 0, "filename")?;
-        let img = dir.join("data").join(name);
-        if !img.is_file() {
-            return Err(CliError::line(
-                &p,
-                r.line,
-                format!("image `{}` does not exist", img.display()),
-            ));
-        }
+        let img = existing_file(dir, &p, &r, "image")?;
         v.push(ImageEntry { t: r.t, path: img });
+    }
+    Ok(v)
+}
+
+fn read_flow_frames(dir: &Path) -> Result<Vec<FlowFrameEntry>, CliError> {
+    let p = dir.join("data.csv");
+    let mut v = Vec::new();
+    for r in csvio::read_rows(&p, 3)? {
+        let img = existing_file(dir, &p, &r, "frame")?;
+        v.push(FlowFrameEntry {
+            t: r.t,
+            path: img,
+            shutter: r.int(&p, 1, "shutter")?,
+        });
     }
     Ok(v)
 }
@@ -356,6 +397,24 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
                 .map(|s| format!("{},{},{},{},{}", s.t.0, s.dx, s.dy, s.squal, s.shutter)),
         )?;
     }
+    if let Some((meta, v)) = &ds.flowraw {
+        let d = mk("flowraw0")?;
+        meta.write(&d.join("sensor.yaml"))?;
+        let images: Vec<ImageEntry> = v
+            .iter()
+            .map(|e| ImageEntry {
+                t: e.t,
+                path: e.path.clone(),
+            })
+            .collect();
+        copy_images(&d, &images)?;
+        csvio::write_rows(
+            &d.join("data.csv"),
+            FLOWRAW_HEADER,
+            v.iter()
+                .map(|e| format!("{},{}.png,{}", e.t.0, e.t.0, e.shutter)),
+        )?;
+    }
     if let Some((meta, v)) = &ds.cam {
         let d = mk("cam0")?;
         meta.write(&d.join("sensor.yaml"))?;
@@ -395,20 +454,24 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
     Ok(())
 }
 
-fn write_images(dir: &Path, v: &[ImageEntry]) -> Result<(), CliError> {
+/// Copies the images into `dir/data/` as `<t>.png` unless they are there.
+fn copy_images(dir: &Path, v: &[ImageEntry]) -> Result<(), CliError> {
     let data = dir.join("data");
     std::fs::create_dir_all(&data)
         .map_err(|e| CliError::file(&data, format!("cannot create: {e}")))?;
-    let mut rows = Vec::with_capacity(v.len());
     for e in v {
-        let name = format!("{}.png", e.t.0);
-        let dst = data.join(&name);
+        let dst = data.join(format!("{}.png", e.t.0));
         if e.path != dst {
             std::fs::copy(&e.path, &dst)
                 .map_err(|err| CliError::file(&e.path, format!("cannot copy image: {err}")))?;
         }
-        rows.push(format!("{},{name}", e.t.0));
     }
+    Ok(())
+}
+
+fn write_images(dir: &Path, v: &[ImageEntry]) -> Result<(), CliError> {
+    copy_images(dir, v)?;
+    let rows = v.iter().map(|e| format!("{},{}.png", e.t.0, e.t.0));
     csvio::write_rows(&dir.join("data.csv"), IMAGE_HEADER, rows)
 }
 
@@ -489,6 +552,7 @@ mod tests {
             cam: None,
             seg: None,
             cam1: None,
+            flowraw: None,
             groundtruth: Some(vec![GroundTruth {
                 t: Timestamp(4_000_000),
                 p: [1.0, 2.0, 0.0],
@@ -554,6 +618,58 @@ mod tests {
             e.contains("wheel0/data.csv:2: right: `x` is not a number"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn raw_flow_frames_round_trip_and_bad_rows_are_named() {
+        let d = tmp("flowraw");
+        let src = d.join("src");
+        std::fs::create_dir_all(&src).unwrap();
+        let mut ds = sample_dataset();
+        let meta = ds.flow.as_ref().unwrap().0.clone();
+        let frames: Vec<FlowFrameEntry> = [(5_000_000u64, 512u16), (15_000_000, 640)]
+            .iter()
+            .map(|&(t, shutter)| {
+                let path = src.join(format!("f{t}.png"));
+                crate::pngio::save_gray(
+                    &path,
+                    &crate::pngio::GrayImage {
+                        width: 35,
+                        height: 35,
+                        data: vec![(t / 1_000_000) as u8; 35 * 35],
+                    },
+                )
+                .unwrap();
+                FlowFrameEntry {
+                    t: Timestamp(t),
+                    path,
+                    shutter,
+                }
+            })
+            .collect();
+        ds.flowraw = Some((meta, frames));
+        let root = d.join("log");
+        write_dataset(&root, &ds).unwrap();
+        let csv = root.join("mav0/flowraw0/data.csv");
+        assert_eq!(
+            std::fs::read_to_string(&csv).unwrap(),
+            format!("{FLOWRAW_HEADER}\n5000000,5000000.png,512\n15000000,15000000.png,640\n")
+        );
+        let back = read_dataset(&root).unwrap();
+        let (m, v) = back.flowraw.unwrap();
+        assert_eq!(m, ds.flowraw.as_ref().unwrap().0);
+        assert_eq!(
+            v.iter().map(|e| (e.t.0, e.shutter)).collect::<Vec<_>>(),
+            [(5_000_000, 512), (15_000_000, 640)]
+        );
+        let img = crate::pngio::load_gray(&v[1].path).unwrap();
+        assert_eq!((img.width, img.height, img.data[0]), (35, 35, 15));
+        std::fs::write(&csv, format!("{FLOWRAW_HEADER}\n5000000,missing.png,512\n")).unwrap();
+        let e = read_dataset(&root).unwrap_err().to_string();
+        assert!(e.contains("flowraw0/data.csv:2:"), "{e}");
+        std::fs::write(&csv, format!("{FLOWRAW_HEADER}\n5000000,5000000.png,x\n")).unwrap();
+        let e = read_dataset(&root).unwrap_err().to_string();
+        assert!(e.contains("flowraw0/data.csv:2: shutter"), "{e}");
     }
 
     #[test]

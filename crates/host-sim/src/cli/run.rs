@@ -4,7 +4,7 @@ use crate::chaos::{ChaosConfig, run_chaos};
 use crate::closed_loop::{LoopOptions, policy_name, route, run_waypoints};
 use crate::error::CliError;
 use crate::faults::{FaultPlan, kinds_help};
-use crate::replay::{ReplayOptions, ReplayOutput, run_replay_with, summary_table};
+use crate::replay::{FlowSource, ReplayOptions, ReplayOutput, run_replay_with, summary_table};
 use crate::sim::scenario::SCENARIOS;
 use crate::sim::scenario::SHUTTLE_DEFAULT_S;
 use crate::simulate::{scenario_for, simulate_faults_with, simulate_scenario_with};
@@ -274,6 +274,13 @@ pub struct ScaleArgs {
     /// says how long it was on.
     #[arg(long, value_enum, value_name = "MODE", default_value = "always")]
     pub flow: FlowArg,
+    /// Where the flow sensor's distance To comes from: its motion `counts`
+    /// (flow0) or its raw `frames` (flowraw0: corners and Lucas-Kanade on
+    /// the 35x35 frames). `simulate` records the frames only with `frames`
+    /// and defaults to counts; `replay` defaults to frames when the log has
+    /// them and no counts.
+    #[arg(long, value_enum, value_name = "SOURCE")]
+    pub flow_source: Option<FlowSourceArg>,
     /// Without the floor's expected slip in the wheel measurement's mean
     /// (no slip prior or learning, the wheel radii learning on every floor):
     /// for comparison with the default.
@@ -290,10 +297,23 @@ pub enum FlowArg {
     OnDemand,
 }
 
+/// The flow sensor's stream, by its command-line name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FlowSourceArg {
+    /// Motion counts (flow0).
+    Counts,
+    /// Raw frames (flowraw0).
+    Frames,
+}
+
 impl ScaleArgs {
     /// `base` with these settings applied.
     fn options(self, base: ReplayOptions) -> ReplayOptions {
         ReplayOptions {
+            flow_source: self.flow_source.map(|f| match f {
+                FlowSourceArg::Counts => FlowSource::Counts,
+                FlowSourceArg::Frames => FlowSource::Frames,
+            }),
             scale_method: self.scale_method.map(Into::into),
             compose: self.compose.map(Into::into),
             distance: self.distance.map(Into::into),
@@ -317,7 +337,7 @@ fn faults_long_help() -> String {
 #[derive(Debug, Args)]
 #[command(
     about = "Replay a recorded ASL dataset through the estimator",
-    long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, cam0, seg0, \
+    long_about = "Reads an ASL/EuRoC dataset folder (mav0/imu0, wheel0, flow0, flowraw0, cam0, seg0, \
                   state_groundtruth_estimate0; any may be absent, the report names what is missing), runs it \
                   through the estimator and writes DIR/ekf.tum, DIR/vslam.tum, \
                   DIR/wheel_only.tum, DIR/report.json, DIR/trajectory.svg, DIR/errors.svg and DIR/report.html. With ground truth \

@@ -183,9 +183,15 @@ pub fn robot_description_with(
         }
         None => preset.wheels,
     };
-    let flow = match (&ds.flow, preset.flow) {
-        (Some((m, _)), Some(flow)) => Some(FlowDescription {
-            mount: extrinsics(&yaml("flow0"), &m.t_bs)?,
+    // The raw frames' sensor.yaml describes the same sensor when the counts are absent.
+    let flow_meta = match (&ds.flow, &ds.flowraw) {
+        (Some((m, _)), _) => Some((m, "flow0")),
+        (None, Some((m, _))) => Some((m, "flowraw0")),
+        (None, None) => None,
+    };
+    let flow = match (flow_meta, preset.flow) {
+        (Some((m, folder)), Some(flow)) => Some(FlowDescription {
+            mount: extrinsics(&yaml(folder), &m.t_bs)?,
             height: m.height as f32,
             counts_per_radian: m.counts_per_radian as f32,
             ..flow

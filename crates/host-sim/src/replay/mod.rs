@@ -234,6 +234,11 @@ pub struct Feed {
 /// How a replay is run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReplayOptions {
+    /// Where the flow sensor's distance `To` comes from: its motion counts
+    /// (`flow0`) or its raw frames (`flowraw0`, tracked by
+    /// [`traction::vslam_core::flow_frames`]); `None` chooses: frames when
+    /// the log has frames and no counts, counts otherwise.
+    pub flow_source: Option<FlowSource>,
     /// Use the segmentation maps (when the dataset has them) for the
     /// surface-aware grip and jolt judgement; `false` keeps the filter's fixed
     /// grip and one fixed jolt threshold, for comparison.
@@ -284,11 +289,34 @@ pub struct ReplayOptions {
     pub gyro_scale: bool,
 }
 
+/// The flow sensor's stream the replay uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlowSource {
+    /// Motion counts (`flow0`): the EKF's flow velocity and the scale pipeline's `To`.
+    Counts,
+    /// Raw frames (`flowraw0`): the scale pipeline's `To` from the frames;
+    /// the counts are not used.
+    Frames,
+}
+
+impl FlowSource {
+    /// The source for dataset `ds` when `choice` is `None` (see
+    /// [`ReplayOptions::flow_source`]).
+    pub fn resolve(choice: Option<FlowSource>, ds: &crate::asl::Dataset) -> FlowSource {
+        match choice {
+            Some(s) => s,
+            None if ds.flow.is_none() && ds.flowraw.is_some() => FlowSource::Frames,
+            None => FlowSource::Counts,
+        }
+    }
+}
+
 impl Default for ReplayOptions {
     /// The surface model on, the camera path's and the scale pipeline's
     /// defaults, bad samples passed to the estimator.
     fn default() -> Self {
         ReplayOptions {
+            flow_source: None,
             surface_model: true,
             redetect_below: None,
             strict: false,

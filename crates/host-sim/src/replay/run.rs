@@ -5,7 +5,7 @@
 use super::config::{estimator_config, frontend_config, sensor_yaml};
 use super::memory as memory_file;
 use super::report::{decision_json, report_json};
-use super::{Feed, Health, Outcomes, ReplayOptions, ReplayOutput};
+use super::{Feed, FlowSource, Health, Outcomes, ReplayOptions, ReplayOutput};
 use crate::asl::{Dataset, GroundTruth, ImageEntry};
 use crate::error::CliError;
 use crate::faults::{FailedRead, Stream};
@@ -20,10 +20,11 @@ use traction::ego_ekf::surface::FloorModel;
 use traction::estimator::{Estimator, Processed};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::reorder::Event;
+use traction::vslam_core::flow_frames::{FrameFlow, FrameFlowConfig};
 use traction::vslam_core::geometry::{Quat, Vec3};
 use traction::vslam_core::image::LabelView;
 use traction::vslam_core::segment::Segmenter;
-use traction::vslam_core::sensors::{RawWheelRates, WheelTicks};
+use traction::vslam_core::sensors::{FLOW_FRAME_LEN, FLOW_FRAME_SIDE, RawWheelRates, WheelTicks};
 use traction::vslam_core::{PerStream, Reject, StreamCounts, Timestamp};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
@@ -66,6 +67,7 @@ fn image(entries: Option<&[ImageEntry]>, k: usize) -> Result<Option<(GrayImage, 
 /// One item of the replay's schedule.
 enum Next {
     Sample(Event),
+    FlowFrame(usize),
     Failed(usize),
     Camera(usize),
     Labels(usize),
@@ -133,8 +135,9 @@ fn arrivals(events: impl Iterator<Item = Event>) -> Vec<(Timestamp, u8, Next)> {
 /// Every stream in arrival order (see [`arrivals`]; time order for a log
 /// whose time stamps increase); images after the samples of the same time
 /// stamp. `feed`, when given, replaces the dataset's sample streams.
-fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
+fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timestamp, u8, Next)> {
     let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
+    let counts = flow == FlowSource::Counts;
     match feed {
         None => {
             if let Some((_, imu)) = &ds.imu {
@@ -146,19 +149,35 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>) -> Vec<(Timestamp, u8, Next)> {
             if let Some((_, rates)) = &ds.wheel_rates {
                 items.extend(arrivals(rates.iter().map(|s| Event::WheelRates(*s))));
             }
-            if let Some((_, f)) = &ds.flow {
+            if let Some((_, f)) = ds.flow.as_ref().filter(|_| counts) {
                 items.extend(arrivals(f.iter().map(|s| Event::Flow(*s))));
             }
         }
         Some(feed) => {
-            items.extend(feed.samples.iter().map(|(a, e)| (*a, 0, Next::Sample(*e))));
+            let flow_counts = |s: Stream| counts || s != Stream::Flow;
+            items.extend(
+                feed.samples
+                    .iter()
+                    .filter(|(_, e)| flow_counts(e.stream()))
+                    .map(|(a, e)| (*a, 0, Next::Sample(*e))),
+            );
             items.extend(
                 feed.failed
                     .iter()
                     .enumerate()
+                    .filter(|(_, f)| flow_counts(f.stream))
                     .map(|(i, f)| (f.t, 0, Next::Failed(i))),
             );
         }
+    }
+    // Raw flow frames before a camera frame of the same time, so its pair sees them.
+    if let Some((_, frames)) = ds.flowraw.as_ref().filter(|_| !counts) {
+        items.extend(
+            frames
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (e.t, 1, Next::FlowFrame(i))),
+        );
     }
     if let Some((_, frames)) = &ds.cam {
         items.extend(
@@ -226,6 +245,8 @@ pub(super) struct Collected {
     pub aids: super::aids::AidStats,
     /// The flow sensor's power (always on, or on demand).
     pub flow_power: super::flow_power::FlowPower,
+    /// The raw flow frames' tracker (the previous frame).
+    pub frame_flow: Option<FrameFlow>,
 }
 
 impl Collected {
@@ -322,6 +343,51 @@ impl Collected {
         Ok(())
     }
 
+    /// Raw flow frame `k` of the dataset (`flowraw0`): tracked against the
+    /// previous frame, its motion into the scale pipeline's `To`.
+    fn flow_frame(
+        &mut self,
+        est: &mut Estimator<'_>,
+        ds: &Dataset,
+        t: Timestamp,
+        k: usize,
+    ) -> Result<(), CliError> {
+        self.drain_until(est, t);
+        let Some(e) = ds.flowraw.as_ref().and_then(|(_, v)| v.get(k)) else {
+            return Ok(());
+        };
+        let img = load_gray(&e.path)?;
+        let frame: &[u8; FLOW_FRAME_LEN] = img
+            .data
+            .as_slice()
+            .try_into()
+            .ok()
+            .filter(|_| img.width == FLOW_FRAME_SIDE && img.height == FLOW_FRAME_SIDE)
+            .ok_or_else(|| {
+                CliError::file(
+                    &e.path,
+                    format!("a raw flow frame is {FLOW_FRAME_SIDE}x{FLOW_FRAME_SIDE} pixels"),
+                )
+            })?;
+        let tracker = match self.frame_flow.as_mut() {
+            Some(f) => f,
+            None => self.frame_flow.insert(
+                FrameFlow::new(FrameFlowConfig::default())
+                    .map_err(|err| CliError::file(&e.path, err.to_string()))?,
+            ),
+        };
+        // A frame out of time order is refused like an out-of-order sample.
+        let outcome = match tracker.push(t, frame) {
+            Ok(pair) => est.process_flow_frame(t, pair.as_ref()),
+            Err(_) => {
+                est.reject_read(Stream::FlowFrame, Reject::OutOfOrder);
+                Err(Reject::OutOfOrder)
+            }
+        };
+        self.log((Stream::FlowFrame, t, outcome_name(&outcome)));
+        Ok(())
+    }
+
     /// Segmentation map `k` of the dataset.
     fn labels(
         &mut self,
@@ -400,6 +466,7 @@ impl Collected {
                     self.failed(est, f);
                 }
             }
+            Next::FlowFrame(k) => self.flow_frame(est, ds, t, *k)?,
             Next::Camera(k) => self.camera(est, ds, t, *k)?,
             Next::Labels(k) => self.labels(est, ds, t, *k)?,
             Next::Segment(k) => self.segment(est, ds, t, *k)?,
@@ -436,7 +503,8 @@ pub(super) fn run(
         )
     });
 
-    let items = schedule(ds, feed);
+    let flow_source = FlowSource::resolve(options.flow_source, ds);
+    let items = schedule(ds, feed, flow_source);
     let bar = Progress::new(progress).bar("replay", items.len() as u64, "samples");
     let mut c = Collected {
         check_health: feed.is_some(),

@@ -4,6 +4,7 @@
 //! AS5047P simulators (the right one mounted mirrored) and come out of the
 //! `wheel-odom` driver's framing, parity checks and multi-turn unwrapping.
 
+use super::flow_frames::RawFrame;
 use crate::chips::as5047p::{EncoderFault, EncoderSim};
 use crate::chips::pmw3901::{FlowChipFault, FlowChipSim};
 use crate::chips::{NoDelay, Shared};
@@ -13,7 +14,9 @@ use crate::faults::{FaultKind, FaultPlan, FaultSpec, SpoiledSample, Stream};
 use std::path::Path;
 use traction::flow_sensor::{FlowSensor, Variant};
 use traction::vslam_core::Reject;
-use traction::vslam_core::sensors::{FlowSample, FlowSource, WheelEncoderSource, WheelTicks};
+use traction::vslam_core::sensors::{
+    FLOW_FRAME_LEN, FlowFrameSource, FlowSample, FlowSource, WheelEncoderSource, WheelTicks,
+};
 use traction::wheel_odom::as5047p::{As5047p, As5047pError};
 use traction::wheel_odom::encoder::{As5047pEncoder, EncoderError, PairError, Polarity, WheelPair};
 
@@ -117,6 +120,42 @@ pub fn flow_through_driver_with(
         }
     }
     Ok(out)
+}
+
+/// The flow sensor's raw frames through the chip simulator's frame-grab
+/// registers (RawData_Grab, RawData_Grab_Status) and the driver's
+/// [`FlowFrameSource::grab_frame`]. A chip of its own: the counting reports
+/// of [`flow_through_driver`] come from another simulated chip, as a grab
+/// leaves the chip in raw-data mode until the next power-up.
+pub struct FrameGrabber {
+    chip: std::rc::Rc<std::cell::RefCell<FlowChipSim>>,
+    sensor: FlowSensor<Shared<FlowChipSim>, NoDelay>,
+}
+
+impl FrameGrabber {
+    /// A powered-up sensor.
+    pub fn new() -> Result<Self, CliError> {
+        let chip = Shared::new(FlowChipSim::new());
+        let handle = chip.handle();
+        let mut sensor = FlowSensor::new(chip, NoDelay, Variant::Paa5100je);
+        sensor
+            .init()
+            .map_err(|e| driver_error("flow sensor power-up", e))?;
+        Ok(FrameGrabber {
+            chip: handle.0,
+            sensor,
+        })
+    }
+
+    /// Puts `frame` in front of the chip and grabs it through the driver.
+    pub fn grab(&mut self, frame: &RawFrame) -> Result<[u8; FLOW_FRAME_LEN], CliError> {
+        self.chip.borrow_mut().set_frame(&frame.pixels);
+        let mut out = [0u8; FLOW_FRAME_LEN];
+        self.sensor
+            .grab_frame(&mut out)
+            .map_err(|e| driver_error("flow frame grab", e))?;
+        Ok(out)
+    }
 }
 
 /// Reads cumulative counts from two simulated AS5047P encoders at each of

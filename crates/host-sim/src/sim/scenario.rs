@@ -252,6 +252,7 @@ pub fn dataset_of(sc: &Scenario) -> Dataset {
             },
             Vec::new(),
         )),
+        flowraw: None,
         groundtruth: None,
         wheel_rates: None,
         labels: None,

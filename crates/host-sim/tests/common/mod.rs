@@ -1,0 +1,76 @@
+//! What host-sim's integration tests share: the binary, scratch folders, a
+//! run that must succeed, `replay` of a dataset, its `report.json`, the
+//! data committed in the repository and numeric CSV rows.
+//!
+//! Each test file uses a part of it (`mod common;`), so unused items are
+//! allowed here.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `host-sim` binary built for this test run.
+pub fn host_sim() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+}
+
+/// An empty folder `<temp>/<prefix>-<pid>-<name>`, removed first if a
+/// previous run left it.
+pub fn scratch(prefix: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("{prefix}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Fails the test with the run's standard error unless it exited 0.
+pub fn assert_ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Runs `cmd`, failing the test with its standard error unless it exits 0.
+pub fn succeed(cmd: &mut Command) -> Output {
+    let out = cmd.output().unwrap();
+    assert_ok(&out);
+    out
+}
+
+/// `host-sim replay DATASET --out OUT [extra]`, which must succeed; gives
+/// its standard output.
+pub fn replay(dataset: &Path, out: &Path, extra: &[&str]) -> String {
+    let o = succeed(
+        host_sim()
+            .arg("replay")
+            .arg(dataset)
+            .arg("--out")
+            .arg(out)
+            .args(extra),
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// `OUT/report.json`, parsed.
+pub fn report(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+}
+
+/// A path under the repository's `data/` folder.
+pub fn repo_data(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(relative)
+}
+
+/// The rows of a numeric CSV file after its header line.
+pub fn csv_rows(path: &Path) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.trim().parse().unwrap()).collect())
+        .collect()
+}
