@@ -5,17 +5,8 @@
 
 use host_sim::simulate::run_simulate;
 use serde_json::Value;
-use std::path::PathBuf;
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "host-sim-disagreement-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+mod common;
 
 /// The frames on which `sensor` disagreed, and of them those whose pair the
 /// scale pipeline found slipping.
@@ -36,7 +27,7 @@ fn disagreeing(frames: &[Value], sensor: &str) -> (usize, usize) {
 
 #[test]
 fn on_the_slip_scenario_the_wheels_disagree_where_they_slip() {
-    let root = tmp("slip");
+    let root = common::scratch("host-sim-disagreement", "slip");
     let out = run_simulate("slip", 1, &root, false).unwrap();
     let r = &out.report;
     let frames = r["frames"].as_array().unwrap();
