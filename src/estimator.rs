@@ -18,7 +18,10 @@
 //!
 //! Camera frames ([`Estimator::process_camera`]): the front end's frame
 //! pair motion goes to the scale pipeline, and with the pair's scale (if
-//! any) to the EKF as a relative-pose measurement; the pair's slip and
+//! any) to the EKF as a relative-pose measurement, its noise inflated by
+//! the camera's adverse-memory weight; before that, each sensor's motion
+//! over the pair is checked against the EKF's ([`crate::disagreement`]),
+//! a disagreement an adverse event of that sensor; the pair's slip and
 //! wheel-outlier verdicts inflate the EKF's wheel noise (by default: refuse
 //! the wheels' forward rows) over the next frame interval
 //! ([`wheel_distrust`]). Camera frames and segmentation maps
@@ -27,6 +30,7 @@
 //! exactly one count of its stream (fused, or rejected with a reason), so a
 //! report's counts add up to what went in.
 
+use crate::disagreement::DisagreementCheck;
 use crate::estimate::{Estimate, estimate_of};
 use crate::frontend::FrontEnd;
 use crate::reorder::{Event, Pushed, Reorder};
@@ -213,6 +217,7 @@ pub struct Estimator<'b> {
     reorder: Reorder<REORDER_CAPACITY>,
     pending: Deque<Processed, 4>,
     counts: StreamCounts,
+    disagreement: DisagreementCheck,
     ended: bool,
 }
 
@@ -234,6 +239,7 @@ impl<'b> Estimator<'b> {
             reorder: Reorder::new(config.reorder_window_ns),
             pending: Deque::new(),
             counts: StreamCounts::zero(),
+            disagreement: DisagreementCheck::default(),
             ended: false,
         })
     }
@@ -333,9 +339,17 @@ impl<'b> Estimator<'b> {
             return Ok(None);
         };
         let decision = self.scale.push_camera(&motion)?;
+        let scale = filter_scale(&decision);
+        // Each sensor against the filter's motion over the pair, before
+        // the pair is fused ([`crate::disagreement`]).
+        self.disagreement
+            .on_frame(&self.ekf, &motion, &decision, scale, &mut self.scale);
         // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
-        // frame pair is counted once here, by the camera path.
-        let _ = self.ekf.fuse_camera(&motion, filter_scale(&decision));
+        // frame pair is counted once here, by the camera path. The camera's
+        // memory weight here inflates its noise.
+        let _ = self
+            .ekf
+            .fuse_camera_weighted(&motion, scale, decision.camera_weight);
         // The scale pipeline's slip and wheel-outlier verdicts set the EKF's
         // wheel noise over the next interval (a factor the filter refuses
         // changes nothing).
@@ -572,6 +586,12 @@ impl<'b> Estimator<'b> {
     /// bytes) as a record; gives the bytes written.
     pub fn export_memory(&self, out: &mut [u8]) -> Result<usize, AdverseError> {
         self.scale.memory().export(out)
+    }
+
+    /// Each sensor's checks against the filter's motion per camera frame
+    /// pair ([`crate::disagreement`]).
+    pub fn disagreement(&self) -> &DisagreementCheck {
+        &self.disagreement
     }
 
     /// The surface model, if configured.

@@ -75,6 +75,7 @@ pub use vslam_core;
 pub use wheel_odom;
 
 pub mod config;
+pub mod disagreement;
 pub mod estimate;
 pub mod estimator;
 pub mod flow_demand;

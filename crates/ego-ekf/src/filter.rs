@@ -29,6 +29,9 @@ use crate::zupt::{StillDetector, ZuptFusion};
 mod camera;
 mod distrust;
 mod read;
+mod relative;
+
+pub use relative::RelativeMotion;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;

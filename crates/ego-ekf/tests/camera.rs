@@ -267,3 +267,69 @@ fn frames_without_a_configured_camera_or_too_old_are_refused() {
     assert_eq!(g.fuse_camera(&m, None), Err(Reject::OutOfOrder));
     assert_eq!(g.camera_counts().rejected(Reject::OutOfOrder), 1);
 }
+
+/// Two frame pairs of a turning filter: the first takes the clone, the
+/// second (a pair 100 ms later that saw 5 % more rotation than the filter
+/// predicts) is fused with the camera's memory weight `weight`.
+fn weighted_pair(weight: f32) -> EgoEkf {
+    let mut f = turning_filter();
+    let frame = |t0: u64, t1: u64, yaw: f32| {
+        CameraMotion::new(
+            Timestamp(t0),
+            Timestamp(t1),
+            Rot3::from_axis_angle(&nalgebra::Vector3::z_axis(), yaw),
+            nalgebra::Vector3::zeros(),
+            200,
+            0.9,
+            0.3,
+        )
+        .unwrap()
+    };
+    for k in 1..=100u64 {
+        f.propagate(&moving_sample(k * DT_NS)).unwrap();
+    }
+    let t1 = 100 * DT_NS;
+    assert_eq!(
+        f.fuse_camera_weighted(&frame(t1 - 100_000_000, t1, 0.0), None, weight),
+        Err(Reject::NotReady)
+    );
+    let motion = f
+        .relative_motion(Timestamp(t1))
+        .expect("a clone at the frame");
+    assert_eq!(motion.t0, Timestamp(t1));
+    for k in 101..=125u64 {
+        f.propagate(&moving_sample(k * DT_NS)).unwrap();
+    }
+    let t2 = 125 * DT_NS;
+    let predicted = f.relative_motion(Timestamp(t2)).unwrap().imu.rotation.z;
+    assert!((predicted - 0.05).abs() < 2e-3, "{predicted}");
+    f.fuse_camera_weighted(&frame(t1, t2, 0.05 * 1.05), None, weight)
+        .unwrap();
+    f
+}
+
+#[test]
+fn the_camera_memory_weight_inflates_its_noise() {
+    let full = weighted_pair(1.0);
+    let quarter = weighted_pair(0.25);
+    let a = full.camera_status().unwrap();
+    let b = quarter.camera_status().unwrap();
+    for i in 0..3 {
+        let ratio = b.observation_var[i] / a.observation_var[i];
+        assert!((ratio - 4.0).abs() < 1e-4, "row {i}: {ratio}");
+    }
+    // The weighted camera moves the heading less.
+    let pull = |f: &EgoEkf| f.attitude().euler_angles().2;
+    assert!(
+        pull(&quarter) < pull(&full),
+        "{} vs {}",
+        pull(&quarter),
+        pull(&full)
+    );
+    // Weights outside (0, 1] are taken as 1.
+    for w in [f32::NAN, 0.0, 2.0] {
+        let odd = weighted_pair(w);
+        let var = odd.camera_status().unwrap().observation_var;
+        assert_eq!(var[..3], a.observation_var[..3], "weight {w}");
+    }
+}

@@ -2,8 +2,8 @@
 //! weight is lowered there before it misleads the estimate again (seed: the
 //! semantic information extractor and the weighting-factor component).
 //!
-//! Events (slip, outlier, blank, stuck and saturated readings, collisions)
-//! are recorded per sensor by position cell (`cell_size` metres; cells are
+//! Events (slip, outlier, blank, stuck and saturated readings, collisions,
+//! disagreement with the fused estimate) are recorded per sensor by position cell (`cell_size` metres; cells are
 //! addressed by their signed integer column and row, so places far apart
 //! never share a cell: at 0.25 m the address covers +-500,000 km) and time
 //! slot. Each sensor has its own slot length ([`SlotLengths`], seed [0089]:
@@ -105,11 +105,15 @@ pub enum AdverseKind {
     Collision = 4,
     /// The reading hit the sensor's full scale (a knock, a bump).
     Saturated = 5,
+    /// The sensor's own motion over an interval disagreed with the fused
+    /// estimate's motion over the same interval beyond what their
+    /// covariances allow (see [`crate::disagree`]).
+    Disagreement = 6,
 }
 
 impl AdverseKind {
     /// How many kinds.
-    pub const COUNT: usize = 6;
+    pub const COUNT: usize = 7;
 }
 
 /// Each sensor's time-slot length, nanoseconds: a slot is
@@ -273,9 +277,11 @@ impl core::error::Error for AdverseError {}
 
 /// Magic bytes at the start of a record.
 pub const MAGIC: [u8; 4] = *b"TRAM";
-/// The record version this code writes and reads (3: the sparse map with
-/// per-sensor slot lengths).
-pub const VERSION: u8 = 3;
+/// The record version this code writes and reads (4: the sparse map with
+/// per-sensor slot lengths and seven event kinds, [`AdverseKind::Disagreement`]
+/// the seventh). Records of an older version are refused as
+/// [`AdverseError::UnsupportedVersion`]: their tally block has another length.
+pub const VERSION: u8 = 4;
 const HEADER_LEN: usize = 4 + 4 + 8 + 60 + 8 + 8;
 const TALLY_LEN: usize = SensorKind::COUNT * AdverseKind::COUNT * 4;
 const ONE_EVENT: f32 = 256.0;
@@ -681,6 +687,33 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_version_3_record_is_refused_with_its_version() {
+        // Version 3 had six event kinds; a record of it, resealed with a
+        // valid checksum, is refused by version, and the reason reads so.
+        type M = AdverseMemory<4, 4>;
+        let mut m = M::new(AdverseParams::default()).unwrap();
+        m.record(
+            SensorKind::Camera,
+            AdverseKind::Disagreement,
+            &Vec2::new(1.0, 2.0),
+            Timestamp(5),
+        )
+        .unwrap();
+        let mut buf = [0u8; M::RECORD_LEN];
+        m.export(&mut buf).unwrap();
+        assert_eq!(M::restore(&buf).unwrap(), m);
+        buf[4] = 3;
+        buf[6] = 6;
+        let crc = crc32fast::hash(&buf[..M::RECORD_LEN - 4]);
+        buf[M::RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+        let err = M::restore(&buf).unwrap_err();
+        assert_eq!(err, AdverseError::UnsupportedVersion(3));
+        extern crate std;
+        use std::string::ToString;
+        assert_eq!(err.to_string(), "unsupported record version 3");
+    }
 
     #[test]
     fn sensors_map_to_streams_and_back() {

@@ -64,6 +64,7 @@
 pub mod adverse;
 pub mod corners;
 pub mod decompose;
+pub mod disagree;
 pub mod flow_frames;
 pub mod fsqrt;
 pub mod geometry;

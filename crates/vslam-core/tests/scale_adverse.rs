@@ -130,7 +130,7 @@ fn record_round_trips_and_corruption_is_typed() {
     let n = m.export(&mut buf).unwrap();
     assert_eq!(n, M::RECORD_LEN);
     assert_eq!(&buf[..4], b"TRAM");
-    assert_eq!(buf[4], 3, "version");
+    assert_eq!(buf[4], 4, "version");
     let back = M::restore(&buf[..n]).unwrap();
     assert_eq!(back, m);
 

@@ -482,3 +482,30 @@ fn events_from_elsewhere_are_recorded_once_per_episode_where_the_robot_is() {
     let elsewhere = vslam_core::geometry::Vec2::new(here.x - 1.0, here.y);
     assert_eq!(p.memory().events(imu, &elsewhere, t), 0.0);
 }
+
+#[test]
+fn repeated_camera_events_lower_the_camera_confidence_there() {
+    use vslam_core::scale::pipeline::EPISODE_GAP_NS;
+    let mut plain: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    let mut learned: ScalePipeline = ScalePipeline::new(config(SelectionMethod::Fusion)).unwrap();
+    drive(&mut plain, 0, 10, 0.3, 1.0, 1.0, true);
+    drive(&mut learned, 0, 10, 0.3, 1.0, 1.0, true);
+    // Three camera disagreements where the robot is (three episodes):
+    // weight 1 / (1 + 0.5 * 2) = 0.5.
+    for k in 0..3u64 {
+        let t = Timestamp(1_000 * MS + k * EPISODE_GAP_NS);
+        assert!(
+            learned
+                .record_event(SensorKind::Camera, AdverseKind::Disagreement, t)
+                .unwrap()
+        );
+    }
+    let t_ms = 1_000 + 3 * EPISODE_GAP_NS / MS;
+    let a = drive(&mut plain, t_ms, 1, 0.3, 1.0, 1.0, true);
+    let b = drive(&mut learned, t_ms, 1, 0.3, 1.0, 1.0, true);
+    assert_eq!(a[0].camera_weight, 1.0);
+    assert!((b[0].camera_weight - 0.5).abs() < 1e-3, "{:?}", b[0]);
+    assert!(a[0].camera_confidence > 0.0);
+    let ratio = b[0].camera_confidence / a[0].camera_confidence;
+    assert!((ratio - 0.5).abs() < 1e-3, "{ratio}");
+}

@@ -102,27 +102,37 @@ impl CameraFusion {
     }
 
     /// Makes the update of the pair ending at `t` (the clone holds the pose
-    /// of its first frame, the state is at `t`), counts it and keeps its
-    /// status: `Ok` all rows fused, [`Reject::Gated`] none or only the
-    /// rotation (see the module doc), another reason nothing fused.
+    /// of its first frame, the state is at `t`) with the measurement noise
+    /// covariance times `noise_factor` (the camera's adverse-memory weight's
+    /// inverse; 1 leaves it as the configuration makes it), counts it and
+    /// keeps its status: `Ok` all rows fused, [`Reject::Gated`] none or
+    /// only the rotation (see the module doc), another reason nothing fused.
     pub fn fuse(
         &mut self,
         x: &mut NominalState,
         p: &mut Covariance,
         motion: &ImuMotion,
         config: &CameraConfig,
+        noise_factor: f32,
         t: Timestamp,
     ) -> Result<(), Reject> {
-        let rotation = rotation_measurement(x, &motion.rotation, config);
+        let inflate = |mut m: Measurement<3>| {
+            if noise_factor != 1.0 {
+                m.noise *= noise_factor;
+            }
+            m
+        };
+        let rotation = inflate(rotation_measurement(x, &motion.rotation, config));
         let observed_rotation = motion.rotation.scaled_axis();
         let full = motion
             .translation
             .filter(|_| config.translation)
             .map(|(t_m, cov)| {
-                (
-                    t_m,
-                    pose_measurement(x, &motion.rotation, &t_m, &cov, config),
-                )
+                let mut m = pose_measurement(x, &motion.rotation, &t_m, &cov, config);
+                if noise_factor != 1.0 {
+                    m.noise *= noise_factor;
+                }
+                (t_m, m)
             });
         let (outcome, record) = match full {
             Some((t_m, m)) => {

@@ -40,6 +40,25 @@ impl EgoEkf {
         motion: &CameraMotion,
         scale: Option<(f32, f32)>,
     ) -> Result<(), Reject> {
+        self.fuse_camera_weighted(motion, scale, 1.0)
+    }
+
+    /// As [`EgoEkf::fuse_camera`], with the camera's weight from the
+    /// adverse-event memory where the robot is (`0 < weight <= 1`): the
+    /// measurement's noise covariance is divided by it (standard deviations
+    /// by its square root), so a camera that repeatedly misled the estimate
+    /// here corrects it less. A weight outside `(0, 1]` or NaN is taken as 1.
+    pub fn fuse_camera_weighted(
+        &mut self,
+        motion: &CameraMotion,
+        scale: Option<(f32, f32)>,
+        weight: f32,
+    ) -> Result<(), Reject> {
+        let noise_factor = if weight > 0.0 && weight <= 1.0 {
+            1.0 / weight
+        } else {
+            1.0
+        };
         let t = motion.t1();
         let Some(config) = self.config.camera else {
             return Err(self.camera.refuse(t, Reject::NotReady));
@@ -59,7 +78,8 @@ impl EgoEkf {
         }
         let out = if self.clone == CloneUse::Frame(motion.t0()) {
             let m = imu_motion(&config, motion.r(), motion.t_over_d(), scale);
-            self.camera.fuse(&mut self.x, &mut self.p, &m, &config, t)
+            self.camera
+                .fuse(&mut self.x, &mut self.p, &m, &config, noise_factor, t)
         } else {
             Err(self.camera.skip_no_clone(t))
         };

@@ -10,6 +10,7 @@
 
 mod aids;
 mod config;
+pub mod disagreement;
 pub mod flow_power;
 pub mod memory;
 mod report;

@@ -61,6 +61,7 @@ pub(super) fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
         "flow_m": d.flow.metres, "flow_confidence": d.flow.confidence,
         "slip": d.slip.amount, "slip_exceeded": d.slip.exceeded, "slip_cause": format!("{:?}", d.slip.cause),
         "wheel_weight": d.wheel_weight, "flow_weight": d.flow_weight,
+        "camera_weight": d.camera_weight,
         "wheel_outlier": d.wheel_outlier,
         "scale": scale, "source": source, "no_scale": why,
         "applied_scale": d.applied_scale,
@@ -139,6 +140,7 @@ pub(super) fn report_json(missing: &[&'static str], c: &Collected, est: &Estimat
         "events": jolts,
         "aids": c.aids.to_json(),
         "flow_power": c.flow_power.to_json(),
+        "disagreement": super::disagreement::report(est),
         "final": final_json(est),
     })
 }
@@ -345,5 +347,6 @@ pub fn summary_table(r: &ReplayOutput) -> String {
         + &reasons_summary(&r.report)
         + &start_summary(r)
         + &events_summary(&r.report)
+        + &super::disagreement::summary(&r.report)
         + &super::memory::summary(&r.report)
 }

@@ -329,7 +329,9 @@ impl Collected {
         match outcome {
             Ok(decision) => {
                 if let Some(d) = decision {
-                    self.decisions.push(decision_json(t, &d));
+                    let mut record = decision_json(t, &d);
+                    record["disagree"] = super::disagreement::last_frame(est);
+                    self.decisions.push(record);
                 }
                 let b = est.scale().body_pose();
                 self.vslam.push(pose(t, b.translation.vector, &b.rotation));

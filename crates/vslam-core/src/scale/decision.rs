@@ -17,7 +17,7 @@ pub struct FrameDecision {
     pub method: SelectionMethod,
     /// Camera baseline `|T|`.
     pub baseline: f32,
-    /// Camera confidence.
+    /// Camera confidence (includes the adverse weight).
     pub camera_confidence: f32,
     /// Wheel transaction `Tw` (confidence includes slip and the adverse weight).
     pub wheel: Transaction,
@@ -27,6 +27,14 @@ pub struct FrameDecision {
     pub wheel_weight: f32,
     /// Adverse-memory weight applied to the flow here.
     pub flow_weight: f32,
+    /// Adverse-memory weight applied to the camera here (its confidence
+    /// includes it).
+    pub camera_weight: f32,
+    /// The wheels' heading change over the pair, rad.
+    pub wheel_yaw: f32,
+    /// The gyro's heading change over the pair (not bias-corrected), rad,
+    /// when its samples covered at least half of it.
+    pub imu_yaw: Option<f32>,
     /// Slip verdict.
     pub slip: SlipReport,
     /// The wheel data were erroneous or an outlier.

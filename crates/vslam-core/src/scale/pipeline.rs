@@ -12,7 +12,7 @@
 //! (`t_BC` of the camera mounting), so `Tw / |T|` is the ceiling distance also
 //! while turning.
 //!
-//! The wheel and flow confidences are multiplied by the sensors' weights from
+//! The wheel, flow and camera confidences are multiplied by the sensors' weights from
 //! the adverse-event memory ([`crate::adverse`]) at the current position and
 //! time, and the pipeline fills that memory with the events it sees: wheel
 //! slip and outliers, wheels stuck while the robot moves, blank or stuck flow,
@@ -250,7 +250,8 @@ impl<const N: usize> ScalePipeline<N> {
         let imu_ok = imu.coverage >= 0.5;
         let before = self.robust.estimate();
         let baseline = m.baseline();
-        let cam_conf = camera_confidence(m, &cfg.camera_confidence);
+        let camera_weight = self.memory.weight(SensorKind::Camera, &position, t1);
+        let cam_conf = camera_confidence(m, &cfg.camera_confidence) * camera_weight;
         let dt = t1.seconds_since(t0).unwrap_or(0.0);
 
         let slip = assess(
@@ -359,6 +360,9 @@ impl<const N: usize> ScalePipeline<N> {
             flow,
             wheel_weight,
             flow_weight,
+            camera_weight,
+            wheel_yaw: ws.yaw,
+            imu_yaw: imu_ok.then_some(imu.yaw),
             slip,
             wheel_outlier,
             scale,
