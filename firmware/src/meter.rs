@@ -6,7 +6,7 @@ use crate::replay::{Probe, Step};
 use crate::{stack, systick};
 
 /// Most measurements kept per step (the run has fewer).
-pub const CAPACITY: usize = 4096;
+pub const CAPACITY: usize = 6144;
 
 /// The measurements of one step, in instructions.
 pub struct Samples {
@@ -97,6 +97,11 @@ pub struct Meter {
     pub lowest: usize,
     /// Bytes painted below the stack pointer before each call.
     pub depth: usize,
+    /// Stack limit of a `traction::Estimator` call, bytes: the painted
+    /// words below it are the canary checked after each such call.
+    pub estimator_limit: usize,
+    /// The first estimator call that went past the limit: `(step, bytes)`.
+    pub overflow: Option<(Step, usize)>,
     last_propagate: Option<u32>,
 }
 
@@ -136,6 +141,8 @@ impl Meter {
             stack: [0; Step::ALL.len()],
             lowest: usize::MAX,
             depth: stack::DEPTH,
+            estimator_limit: stack::ESTIMATOR_LIMIT,
+            overflow: None,
             last_propagate: None,
         }
     }
@@ -157,6 +164,9 @@ impl Probe for Meter {
         let (r, ticks, used, top) = timed(self.depth, f);
         self.lowest = self.lowest.min(top - used);
         let i = step.index();
+        if step.is_estimator() && used > self.estimator_limit && self.overflow.is_none() {
+            self.overflow = Some((step, used));
+        }
         if let Some(s) = self.stack.get_mut(i) {
             *s = (*s).max(used);
         }
