@@ -48,6 +48,8 @@ static mut FE_CURRENT_PYRAMID: [u8; FE_SIZES[2]] = [0; FE_SIZES[2]];
 static mut FE_CORNER_SCRATCH: [f32; FE_SIZES[3]] = [0.0; FE_SIZES[3]];
 /// The floor model's label map for a 160x120 frame (2x2 cells).
 static mut SEGMENT_MAP: [u8; FRAME.0 / 2 * (FRAME.1 / 2)] = [0; FRAME.0 / 2 * (FRAME.1 / 2)];
+/// The measurements (a static: hundreds of KB).
+static mut METER: Meter = Meter::empty();
 /// The estimator, built at compile time (`Estimator::unconfigured` is a
 /// `const fn`) and configured in place by `replay::run_estimator`.
 static mut ESTIMATOR: Estimator<'static> = Estimator::unconfigured();
@@ -208,9 +210,9 @@ fn main() -> ! {
         finish(&mut out, false)
     };
     systick::start(&mut core.SYST);
-    let Some(meter) = cortex_m::singleton!(: Meter = Meter::new()) else {
-        finish(&mut out, false)
-    };
+    // SAFETY: the only reference ever made to this static, made once.
+    let meter = unsafe { &mut *core::ptr::addr_of_mut!(METER) };
+    meter.calibrate();
     // CPUID part number (ARMv7-M ARM B3.2.3): 0xC24 Cortex-M4, 0xC27 Cortex-M7.
     let cpuid = core.CPUID.base.read();
     let cpu = match (cpuid >> 4) & 0xFFF {

@@ -121,20 +121,12 @@ fn timed<R>(depth: usize, f: impl FnOnce() -> R) -> (R, u32, usize, usize) {
 }
 
 impl Meter {
-    /// Calibrates (instructions per tick, measurement overhead) and starts empty.
-    pub fn new() -> Self {
-        let instructions_per_tick = systick::calibrate();
-        // The overhead is below one tick: average many empty measurements.
-        const EMPTY: u32 = 1024;
-        let mut ticks = 0u32;
-        for _ in 0..EMPTY {
-            let ((), t, _, _) = timed(stack::DEPTH, || core::hint::black_box(()));
-            ticks += t;
-        }
-        let overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
+    /// No measurements, not calibrated: a `const` value, so that the meter
+    /// (hundreds of KB) is a static, not a value passed through `main`'s stack.
+    pub const fn empty() -> Self {
         Meter {
-            instructions_per_tick,
-            overhead,
+            instructions_per_tick: 0.0,
+            overhead: 0.0,
             steps: [const { Samples::new() }; Step::ALL.len()],
             propagate_and_wheel: Samples::new(),
             refused: [(0, 0); Step::ALL.len()],
@@ -147,6 +139,20 @@ impl Meter {
         }
     }
 
+    /// Calibrates: instructions per tick and the measurement overhead.
+    pub fn calibrate(&mut self) {
+        let instructions_per_tick = systick::calibrate();
+        // The overhead is below one tick: average many empty measurements.
+        const EMPTY: u32 = 1024;
+        let mut ticks = 0u32;
+        for _ in 0..EMPTY {
+            let ((), t, _, _) = timed(stack::DEPTH, || core::hint::black_box(()));
+            ticks += t;
+        }
+        self.instructions_per_tick = instructions_per_tick;
+        self.overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
+    }
+
     fn instructions(&self, ticks: u32, calls: f32) -> u32 {
         let v = ticks as f32 * self.instructions_per_tick - calls * self.overhead;
         if v > 0.0 { v as u32 } else { 0 }
@@ -155,7 +161,7 @@ impl Meter {
 
 impl Default for Meter {
     fn default() -> Self {
-        Self::new()
+        Self::empty()
     }
 }
 
