@@ -257,7 +257,7 @@ fn main() -> ! {
             finish(&mut out, false)
         }
     };
-    if let Some((step, used)) = meter.overflow {
+    if let Some((step, used)) = meter.overflow() {
         let _ = writeln!(
             out,
             "error stack_overflow {} used {used} limit {}",
@@ -335,7 +335,7 @@ fn main() -> ! {
     let _ = segment.write(&mut out);
     // The deepest the stack went: during a measured call, or anywhere else.
     let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);
-    let lowest = outside.min(meter.lowest);
+    let lowest = outside.min(meter.lowest());
     let _ = writeln!(
         out,
         "stack whole_run {} from_main {}",
