@@ -6,4 +6,5 @@ fn main() {
     let _ = fs::copy("memory.x", out.join("memory.x"));
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-env-changed=FIRMWARE_ESTIMATOR_STACK_LIMIT");
 }

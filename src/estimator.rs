@@ -29,10 +29,25 @@
 //! once after every buffered sample up to their time. Every sample ends in
 //! exactly one count of its stream (fused, or rejected with a reason), so a
 //! report's counts add up to what went in.
+//!
+//! # Memory
+//!
+//! [`EstimatorWith`] takes its capacities as const generics (the ordering
+//! buffer, the scale pipeline's camera trajectory, the jolt log, the
+//! running-scale window);
+//! [`Estimator`] is the type with the default capacities. All of its state
+//! is inline (no allocator): 48,848 bytes with the defaults on
+//! `thumbv7em-none-eabihf` (`size Estimator` in `firmware/report`). To build
+//! it in place, e.g. in a `static` on a microcontroller, without an
+//! estimator-sized value passing through the stack:
+//! [`EstimatorWith::unconfigured`] is a `const fn` (a static initialiser),
+//! and [`EstimatorWith::configure`] writes the configuration into every part
+//! where it lies; [`EstimatorWith::fit_frontend`] adds the camera path.
+//! [`EstimatorWith::new`] builds a value (on the stack or in a `Box`).
 
 use crate::disagreement::DisagreementCheck;
 use crate::estimate::{Estimate, estimate_of};
-use crate::frontend::FrontEnd;
+use crate::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, FrontEndError};
 use crate::reorder::{Event, Pushed, Reorder};
 use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
@@ -47,12 +62,24 @@ use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, Wh
 use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
-/// Samples the ordering buffer holds.
+/// Samples the ordering buffer holds ([`Estimator`]'s default).
 pub const REORDER_CAPACITY: usize = 64;
-/// Recent poses the scale pipeline keeps.
+/// Recent poses the scale pipeline keeps ([`Estimator`]'s default).
 pub const TRAJECTORY_CAPACITY: usize = 32;
-/// Jolt events the monitor keeps.
+/// Jolt events the monitor keeps ([`Estimator`]'s default).
 pub const JOLT_LOG: usize = 16;
+/// Frames in the scale pipeline's running-scale window ([`Estimator`]'s
+/// default; at least the configuration's `scale.robust.min_count`, which
+/// [`EstimatorWith::configure`] checks).
+pub const SCALE_WINDOW: usize = vslam_core::scale::config::SCALE_WINDOW;
+/// Smallest ordering buffer: one sample.
+pub const MIN_REORDER_CAPACITY: usize = 1;
+/// Smallest camera trajectory: the two poses of a frame pair.
+pub const MIN_TRAJECTORY_CAPACITY: usize = 2;
+/// Smallest jolt log: the latest event.
+pub const MIN_JOLT_LOG: usize = 1;
+/// Smallest running-scale window: one frame.
+pub const MIN_SCALE_WINDOW: usize = 1;
 
 /// Everything the estimator is built from.
 #[derive(Clone, Debug)]
@@ -205,43 +232,161 @@ impl Processed {
     }
 }
 
-/// The whole estimator.
-pub struct Estimator<'b> {
+/// The estimator with the default capacities ([`REORDER_CAPACITY`],
+/// [`TRAJECTORY_CAPACITY`], [`JOLT_LOG`], [`SCALE_WINDOW`]).
+pub type Estimator<'b> =
+    EstimatorWith<'b, REORDER_CAPACITY, TRAJECTORY_CAPACITY, JOLT_LOG, SCALE_WINDOW>;
+
+/// The whole estimator, with its capacities: `REORDER` samples in the
+/// ordering buffer (at least [`MIN_REORDER_CAPACITY`]; it must hold the
+/// samples of every stream that arrive within the ordering window),
+/// `TRAJECTORY` camera poses in the scale pipeline (at least
+/// [`MIN_TRAJECTORY_CAPACITY`]) and `JOLTS` jolt events in the log (at least
+/// [`MIN_JOLT_LOG`]) and `SCALE` frames in the running-scale window (at
+/// least [`MIN_SCALE_WINDOW`], and at least the configuration's
+/// `scale.robust.min_count`, checked by [`EstimatorWith::configure`]).
+/// Smaller capacities are refused at compile time:
+///
+/// ```compile_fail
+/// use traction::estimator::EstimatorWith;
+/// // A trajectory of one pose cannot hold a frame pair.
+/// let e: EstimatorWith<'static, 64, 1, 16, 15> = EstimatorWith::unconfigured();
+/// ```
+///
+/// ```
+/// use traction::estimator::EstimatorWith;
+/// let e: EstimatorWith<'static, 64, 2, 16, 15> = EstimatorWith::unconfigured();
+/// assert!(!e.is_configured());
+/// ```
+pub struct EstimatorWith<
+    'b,
+    const REORDER: usize,
+    const TRAJECTORY: usize,
+    const JOLTS: usize,
+    const SCALE: usize,
+> {
     ekf: EgoEkf,
     odometry: DiffDriveOdometry,
-    scale: ScalePipeline<TRAJECTORY_CAPACITY>,
+    scale: ScalePipeline<TRAJECTORY, SCALE>,
     surface: Option<SurfaceModel>,
-    jolts: JoltMonitor<JOLT_LOG>,
+    jolts: JoltMonitor<JOLTS>,
     frontend: Option<FrontEnd<'b>>,
     wheel_distrust: Option<f32>,
-    reorder: Reorder<REORDER_CAPACITY>,
+    reorder: Reorder<REORDER>,
     pending: Deque<Processed, 4>,
     counts: StreamCounts,
     disagreement: DisagreementCheck,
     ended: bool,
+    configured: bool,
 }
 
-impl<'b> Estimator<'b> {
+impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, const SCALE: usize>
+    EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE>
+{
+    /// The capacities' lower bounds, checked when the type is used.
+    const CAPACITIES: () = assert!(
+        REORDER >= MIN_REORDER_CAPACITY
+            && TRAJECTORY >= MIN_TRAJECTORY_CAPACITY
+            && JOLTS >= MIN_JOLT_LOG
+            && SCALE >= MIN_SCALE_WINDOW,
+        "estimator capacities below their minimum (MIN_REORDER_CAPACITY, \
+         MIN_TRAJECTORY_CAPACITY, MIN_JOLT_LOG, MIN_SCALE_WINDOW)"
+    );
+
     /// Builds the estimator; `frontend` is the camera path, if a camera is fitted.
     pub fn new(
         config: &EstimatorConfig,
         frontend: Option<FrontEnd<'b>>,
     ) -> Result<Self, EstimatorError> {
-        config.check()?;
-        Ok(Estimator {
-            ekf: EgoEkf::new(config.filter).map_err(EstimatorError::Filter)?,
-            odometry: DiffDriveOdometry::new(config.odometry),
-            scale: ScalePipeline::new(config.scale).map_err(EstimatorError::Scale)?,
-            surface: config.surface.map(SurfaceModel::new),
-            jolts: JoltMonitor::new(config.jolts),
-            frontend,
-            wheel_distrust: config.wheel_distrust,
-            reorder: Reorder::new(config.reorder_window_ns),
+        let mut e = Self::unconfigured();
+        e.configure(config)?;
+        e.frontend = frontend;
+        Ok(e)
+    }
+
+    /// An estimator that refuses every sample (counted as
+    /// [`Reject::NotReady`]) until [`EstimatorWith::configure`] succeeds,
+    /// with no camera path. A `const fn`, so that the estimator can be a
+    /// `static` built at compile time and configured in place:
+    ///
+    /// ```
+    /// use traction::estimator::{Estimator, EstimatorConfig};
+    /// use traction::vslam_core::robot::RobotDescription;
+    ///
+    /// // Built at compile time (in firmware: behind the platform's mutex or
+    /// // cell, e.g. `critical_section::Mutex<RefCell<..>>`).
+    /// static ESTIMATOR: std::sync::Mutex<Estimator<'static>> =
+    ///     std::sync::Mutex::new(Estimator::unconfigured());
+    ///
+    /// let config = EstimatorConfig::from_robot(&RobotDescription::robot_vacuum()).unwrap();
+    /// let mut est = ESTIMATOR.lock().unwrap();
+    /// assert!(!est.is_configured());
+    /// est.configure(&config).unwrap();
+    /// assert!(est.is_configured());
+    /// ```
+    pub const fn unconfigured() -> Self {
+        let () = Self::CAPACITIES;
+        EstimatorWith {
+            ekf: EgoEkf::unconfigured(),
+            odometry: DiffDriveOdometry::new(DiffDriveParams::PLACEHOLDER),
+            scale: ScalePipeline::unconfigured(),
+            surface: None,
+            jolts: JoltMonitor::new(JoltConfig::DEFAULT),
+            frontend: None,
+            wheel_distrust: None,
+            reorder: Reorder::new(0),
             pending: Deque::new(),
             counts: StreamCounts::zero(),
             disagreement: DisagreementCheck::default(),
             ended: false,
-        })
+            configured: false,
+        }
+    }
+
+    /// Configures every part in place and starts over: the filter, the
+    /// odometry, the scale pipeline (its windows emptied where they lie),
+    /// the surface model, the jolt monitor, the ordering buffer and the
+    /// counts; the camera path is kept ([`EstimatorWith::fit_frontend`]).
+    /// No part is built as a value and moved, so the stack holds at most a
+    /// part's small pieces. A refused configuration leaves the estimator
+    /// unconfigured: it refuses samples until a later call succeeds.
+    pub fn configure(&mut self, config: &EstimatorConfig) -> Result<(), EstimatorError> {
+        self.configured = false;
+        config.check()?;
+        self.ekf
+            .reset(config.filter)
+            .map_err(EstimatorError::Filter)?;
+        self.scale
+            .reset(config.scale)
+            .map_err(EstimatorError::Scale)?;
+        self.odometry = DiffDriveOdometry::new(config.odometry);
+        self.surface = config.surface.map(SurfaceModel::new);
+        self.jolts = JoltMonitor::new(config.jolts);
+        self.wheel_distrust = config.wheel_distrust;
+        self.reorder.reset(config.reorder_window_ns);
+        self.pending.clear();
+        self.counts = StreamCounts::zero();
+        self.ended = false;
+        self.configured = true;
+        Ok(())
+    }
+
+    /// Whether [`EstimatorWith::configure`] (or [`EstimatorWith::new`]) succeeded.
+    pub fn is_configured(&self) -> bool {
+        self.configured
+    }
+
+    /// Fits the camera path: built by [`FrontEnd::new`] from `config` and
+    /// the caller's `buffers`, then moved in; on an error the estimator has
+    /// no camera path.
+    pub fn fit_frontend(
+        &mut self,
+        config: FrontEndConfig,
+        buffers: FrontEndBuffers<'b>,
+    ) -> Result<(), FrontEndError> {
+        self.frontend = None;
+        self.frontend = Some(FrontEnd::new(config, buffers)?);
+        Ok(())
     }
 
     /// Offers an IMU sample.
@@ -268,6 +413,11 @@ impl<'b> Estimator<'b> {
     /// Offers a sample of any buffered stream. A sample that comes too late
     /// for the ordering window is rejected and counted as out of order.
     pub fn offer(&mut self, event: Event) {
+        if !self.configured {
+            let p = self.reject(event, Reject::NotReady);
+            self.queue(p);
+            return;
+        }
         match self.reorder.push(event) {
             Ok(Pushed::Held) => {}
             Ok(Pushed::HeldReleasing(oldest)) => {
@@ -568,7 +718,7 @@ impl<'b> Estimator<'b> {
     }
 
     /// The scale pipeline (camera trajectory, decisions, adverse memory).
-    pub fn scale(&self) -> &ScalePipeline<TRAJECTORY_CAPACITY> {
+    pub fn scale(&self) -> &ScalePipeline<TRAJECTORY, SCALE> {
         &self.scale
     }
 
@@ -600,7 +750,7 @@ impl<'b> Estimator<'b> {
     }
 
     /// The jolt monitor (event log and counters).
-    pub fn jolts(&self) -> &JoltMonitor<JOLT_LOG> {
+    pub fn jolts(&self) -> &JoltMonitor<JOLTS> {
         &self.jolts
     }
 
@@ -631,5 +781,88 @@ impl<'b> Estimator<'b> {
             .as_ref()
             .map(|f| *f.counts())
             .unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod construction_tests {
+    extern crate std;
+
+    use super::*;
+    use vslam_core::robot::RobotDescription;
+    use vslam_core::sensors::RawImuSample;
+
+    fn config() -> EstimatorConfig {
+        EstimatorConfig::from_robot(&RobotDescription::robot_vacuum()).unwrap()
+    }
+
+    fn feed(est: &mut Estimator<'_>, n: u64) {
+        for i in 0..n {
+            est.offer_imu(RawImuSample {
+                t: Timestamp(i * 4_000_000),
+                gyro: [0.001, -0.002, 0.003],
+                accel: [0.05, -0.02, 9.81],
+            });
+            while est.poll().is_some() {}
+        }
+    }
+
+    /// Configuring in place, even over a used estimator, gives the state
+    /// `new` builds, and both run on identically.
+    #[test]
+    fn configure_in_place_matches_new() {
+        let c = config();
+        let mut fresh = Estimator::new(&c, None).unwrap();
+        let mut reused: Estimator<'static> = Estimator::unconfigured();
+        reused.configure(&c).unwrap();
+        feed(&mut reused, 300);
+        reused.configure(&c).unwrap();
+        let state =
+            |e: &Estimator<'_>| std::format!("{:?} {:?} {:?}", e.ekf(), e.scale(), e.counts());
+        assert_eq!(state(&fresh), state(&reused));
+        feed(&mut fresh, 300);
+        feed(&mut reused, 300);
+        assert!(fresh.ekf().is_initialised());
+        assert_eq!(state(&fresh), state(&reused));
+    }
+
+    /// A running-scale window shorter than the configuration's
+    /// `robust.min_count` is refused, and the estimator stays unconfigured.
+    #[test]
+    fn scale_window_must_hold_min_count() {
+        let c = config();
+        let n = usize::from(c.scale.robust.min_count);
+        let mut short: EstimatorWith<'static, 64, 32, 16, 4> = EstimatorWith::unconfigured();
+        assert!(n > 4);
+        assert_eq!(
+            short.configure(&c),
+            Err(EstimatorError::Scale(
+                vslam_core::scale::PipelineConfigError::OutOfRange("robust.min_count")
+            ))
+        );
+        assert!(!short.is_configured());
+        let mut enough: EstimatorWith<'static, 64, 32, 16, 5> = EstimatorWith::unconfigured();
+        assert_eq!(n, 5);
+        assert!(enough.configure(&c).is_ok());
+    }
+
+    /// An unconfigured estimator counts every sample as not ready.
+    #[test]
+    fn unconfigured_refuses_samples() {
+        let mut est: EstimatorWith<'static, 4, 2, 1, 1> = EstimatorWith::unconfigured();
+        est.offer_imu(RawImuSample {
+            t: Timestamp(0),
+            gyro: [0.0; 3],
+            accel: [0.0, 0.0, 9.81],
+        });
+        assert!(matches!(
+            est.poll(),
+            Some(Processed::Imu {
+                outcome: Err(Reject::NotReady),
+                ..
+            })
+        ));
+        assert_eq!(est.counts()[Stream::Imu].rejected(Reject::NotReady), 1);
+        assert!(!est.ekf().is_initialised());
     }
 }

@@ -84,7 +84,7 @@ pub mod navigate;
 pub mod reorder;
 
 pub use estimate::{Aids, Estimate, PoseCovariance};
-pub use estimator::{Estimator, EstimatorConfig, EstimatorError, Processed};
+pub use estimator::{Estimator, EstimatorConfig, EstimatorError, EstimatorWith, Processed};
 pub use frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 pub use navigate::{NavConfig, Navigator, Policy};
 pub use reorder::Event;

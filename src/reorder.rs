@@ -122,6 +122,16 @@ impl<const N: usize> Reorder<N> {
         self.released
     }
 
+    /// Empties the buffer in place and waits `window_ns` from now on, as
+    /// [`Reorder::new`].
+    pub fn reset(&mut self, window_ns: u64) {
+        self.heap.clear();
+        self.window_ns = window_ns;
+        self.newest = None;
+        self.released = None;
+        self.seq = 0;
+    }
+
     /// Offers a sample. Too late (older than a released one): `Err((OutOfOrder, event))`.
     pub fn push(&mut self, event: Event) -> Result<Pushed, (Reject, Event)> {
         let t = event.t();

@@ -48,6 +48,11 @@ static mut FE_CURRENT_PYRAMID: [u8; FE_SIZES[2]] = [0; FE_SIZES[2]];
 static mut FE_CORNER_SCRATCH: [f32; FE_SIZES[3]] = [0.0; FE_SIZES[3]];
 /// The floor model's label map for a 160x120 frame (2x2 cells).
 static mut SEGMENT_MAP: [u8; FRAME.0 / 2 * (FRAME.1 / 2)] = [0; FRAME.0 / 2 * (FRAME.1 / 2)];
+/// The measurements (a static: hundreds of KB).
+static mut METER: Meter = Meter::empty();
+/// The estimator, built at compile time (`Estimator::unconfigured` is a
+/// `const fn`) and configured in place by `replay::run_estimator`.
+static mut ESTIMATOR: Estimator<'static> = Estimator::unconfigured();
 /// Stack painted below a front-end call.
 const FRONTEND_PAINT: usize = 160 * 1024;
 
@@ -164,6 +169,32 @@ fn sizes(out: &mut Out) {
     }
 }
 
+/// The estimator's memory: the peak stack of its calls against the limit,
+/// and its RAM with the front end's buffers for 160x120 frames.
+fn estimator_memory(out: &mut Out, meter: &Meter) {
+    let peak = Step::ALL
+        .iter()
+        .filter(|s| s.is_estimator())
+        .filter_map(|s| meter.stack.get(s.index()))
+        .max()
+        .copied()
+        .unwrap_or(0);
+    let _ = writeln!(
+        out,
+        "estimator stack_peak {peak} limit {}",
+        meter.estimator_limit
+    );
+    let [frame, previous, current, scratch] = FE_SIZES;
+    let buffers = frame + previous + current + scratch * size_of::<f32>();
+    let estimator = size_of::<Estimator<'static>>();
+    let _ = writeln!(
+        out,
+        "estimator ram {} estimator {estimator} frontend_buffers160x120 {buffers} limit {}",
+        estimator + buffers,
+        96 * 1024
+    );
+}
+
 /// Stack painted at reset for the whole run's peak.
 const RUN_PAINT: usize = 1024 * 1024;
 
@@ -179,9 +210,9 @@ fn main() -> ! {
         finish(&mut out, false)
     };
     systick::start(&mut core.SYST);
-    let Some(meter) = cortex_m::singleton!(: Meter = Meter::new()) else {
-        finish(&mut out, false)
-    };
+    // SAFETY: the only reference ever made to this static, made once.
+    let meter = unsafe { &mut *core::ptr::addr_of_mut!(METER) };
+    meter.calibrate();
     // CPUID part number (ARMv7-M ARM B3.2.3): 0xC24 Cortex-M4, 0xC27 Cortex-M7.
     let cpuid = core.CPUID.base.read();
     let cpu = match (cpuid >> 4) & 0xFFF {
@@ -217,6 +248,24 @@ fn main() -> ! {
             finish(&mut out, false)
         }
     };
+    // SAFETY: the only reference ever made to this static, made once.
+    let estimator = unsafe { &mut *core::ptr::addr_of_mut!(ESTIMATOR) };
+    let est_run = match replay::run_estimator(SAMPLE, estimator, meter) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = writeln!(out, "error {e}");
+            finish(&mut out, false)
+        }
+    };
+    if let Some((step, used)) = meter.overflow() {
+        let _ = writeln!(
+            out,
+            "error stack_overflow {} used {used} limit {}",
+            step.name(),
+            meter.estimator_limit
+        );
+        finish(&mut out, false)
+    }
     // SAFETY: the only references ever made to these statics, made once.
     let buffers = unsafe {
         FrontEndBuffers {
@@ -278,13 +327,15 @@ fn main() -> ! {
     let dropped: u32 = meter.steps.iter().map(|s| s.dropped).sum();
     let _ = writeln!(out, "dropped_measurements {dropped}");
     sizes(&mut out);
+    estimator_memory(&mut out, meter);
     let _ = summary.write(&mut out);
+    let _ = est_run.write(&mut out);
     let _ = summary.write_counts(&mut out);
     let _ = frontend.write(&mut out);
     let _ = segment.write(&mut out);
     // The deepest the stack went: during a measured call, or anywhere else.
     let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);
-    let lowest = outside.min(meter.lowest);
+    let lowest = outside.min(meter.lowest());
     let _ = writeln!(
         out,
         "stack whole_run {} from_main {}",

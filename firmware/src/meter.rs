@@ -6,7 +6,7 @@ use crate::replay::{Probe, Step};
 use crate::{stack, systick};
 
 /// Most measurements kept per step (the run has fewer).
-pub const CAPACITY: usize = 4096;
+pub const CAPACITY: usize = 6144;
 
 /// The measurements of one step, in instructions.
 pub struct Samples {
@@ -93,10 +93,16 @@ pub struct Meter {
     pub propagate_and_wheel: Samples,
     /// Peak stack per step, bytes.
     pub stack: [usize; Step::ALL.len()],
-    /// Lowest stack address any measured call reached.
-    pub lowest: usize,
+    /// Lowest stack address any measured call reached; 0 before the first.
+    lowest: usize,
     /// Bytes painted below the stack pointer before each call.
     pub depth: usize,
+    /// Stack limit of a `traction::Estimator` call, bytes: the painted
+    /// words below it are the canary checked after each such call.
+    pub estimator_limit: usize,
+    /// The first estimator call that went past the limit and its bytes
+    /// (0: none).
+    overflow: (Step, usize),
     last_propagate: Option<u32>,
 }
 
@@ -116,8 +122,45 @@ fn timed<R>(depth: usize, f: impl FnOnce() -> R) -> (R, u32, usize, usize) {
 }
 
 impl Meter {
-    /// Calibrates (instructions per tick, measurement overhead) and starts empty.
-    pub fn new() -> Self {
+    /// No measurements, not calibrated: a `const` value of zero bytes, so
+    /// that the meter (hundreds of KB) is a static in `.bss`, neither a value
+    /// passed through `main`'s stack nor an image in flash.
+    pub const fn empty() -> Self {
+        Meter {
+            instructions_per_tick: 0.0,
+            overhead: 0.0,
+            steps: [const { Samples::new() }; Step::ALL.len()],
+            propagate_and_wheel: Samples::new(),
+            refused: [(0, 0); Step::ALL.len()],
+            stack: [0; Step::ALL.len()],
+            lowest: 0,
+            depth: 0,
+            estimator_limit: 0,
+            overflow: (Step::Propagate, 0),
+            last_propagate: None,
+        }
+    }
+
+    /// Lowest stack address any measured call reached (`usize::MAX` before
+    /// the first).
+    pub fn lowest(&self) -> usize {
+        if self.lowest == 0 {
+            usize::MAX
+        } else {
+            self.lowest
+        }
+    }
+
+    /// The first estimator call past [`Meter::estimator_limit`]: `(step, bytes)`.
+    pub fn overflow(&self) -> Option<(Step, usize)> {
+        (self.overflow.1 > 0).then_some(self.overflow)
+    }
+
+    /// Calibrates (instructions per tick, the measurement overhead) and sets
+    /// the painted depth and the estimator's stack limit.
+    pub fn calibrate(&mut self) {
+        self.depth = stack::DEPTH;
+        self.estimator_limit = stack::ESTIMATOR_LIMIT;
         let instructions_per_tick = systick::calibrate();
         // The overhead is below one tick: average many empty measurements.
         const EMPTY: u32 = 1024;
@@ -126,18 +169,8 @@ impl Meter {
             let ((), t, _, _) = timed(stack::DEPTH, || core::hint::black_box(()));
             ticks += t;
         }
-        let overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
-        Meter {
-            instructions_per_tick,
-            overhead,
-            steps: [const { Samples::new() }; Step::ALL.len()],
-            propagate_and_wheel: Samples::new(),
-            refused: [(0, 0); Step::ALL.len()],
-            stack: [0; Step::ALL.len()],
-            lowest: usize::MAX,
-            depth: stack::DEPTH,
-            last_propagate: None,
-        }
+        self.instructions_per_tick = instructions_per_tick;
+        self.overhead = ticks as f32 / EMPTY as f32 * instructions_per_tick;
     }
 
     fn instructions(&self, ticks: u32, calls: f32) -> u32 {
@@ -148,15 +181,18 @@ impl Meter {
 
 impl Default for Meter {
     fn default() -> Self {
-        Self::new()
+        Self::empty()
     }
 }
 
 impl Probe for Meter {
     fn measure<T, E>(&mut self, step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
         let (r, ticks, used, top) = timed(self.depth, f);
-        self.lowest = self.lowest.min(top - used);
+        self.lowest = self.lowest().min(top - used);
         let i = step.index();
+        if step.is_estimator() && used > self.estimator_limit && self.overflow().is_none() {
+            self.overflow = (step, used);
+        }
         if let Some(s) = self.stack.get_mut(i) {
             *s = (*s).max(used);
         }

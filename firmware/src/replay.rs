@@ -21,9 +21,10 @@ use core::fmt::{self, Write};
 
 use traction::ego_ekf::{EgoEkf, FilterConfig};
 use traction::estimate::estimate_of;
-use traction::estimator::{EstimatorConfig, EstimatorError, filter_scale};
+use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, filter_scale};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::navigate::{Command, NavConfig, Navigator, Point, Policy};
+use traction::reorder::Event;
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
@@ -34,7 +35,7 @@ use traction::vslam_core::robot::{
 use traction::vslam_core::scale::CameraMotion;
 use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
 use traction::vslam_core::sensors::ImuSample;
-use traction::vslam_core::{PerStream, Reject, SampleCounts};
+use traction::vslam_core::{PerStream, Reject, SampleCounts, Stream};
 use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 use crate::frames;
@@ -74,11 +75,17 @@ pub enum Step {
     /// `estimate_of` plus `Navigator::command`: the waypoint navigator's
     /// wheel command from the filter's estimate, after each wheel update.
     Navigate,
+    /// `Estimator::configure` of the estimator in its static, in place.
+    EstConfigure,
+    /// `Estimator::offer` of one IMU, wheel or flow sample.
+    EstOffer,
+    /// `Estimator::poll` that processed a sample.
+    EstPoll,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 12] = [
+    pub const ALL: [Step; 15] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -91,6 +98,9 @@ impl Step {
         Step::FrontEnd,
         Step::Segment,
         Step::Navigate,
+        Step::EstConfigure,
+        Step::EstOffer,
+        Step::EstPoll,
     ];
 
     /// Position in [`Step::ALL`].
@@ -113,7 +123,15 @@ impl Step {
             Step::FrontEnd => "frontend.process",
             Step::Segment => "segment.floor_model",
             Step::Navigate => "navigate.command",
+            Step::EstConfigure => "estimator.configure",
+            Step::EstOffer => "estimator.offer",
+            Step::EstPoll => "estimator.poll",
         }
+    }
+
+    /// A call of `traction::Estimator` (held to the estimator's stack limit).
+    pub const fn is_estimator(self) -> bool {
+        matches!(self, Step::EstConfigure | Step::EstOffer | Step::EstPoll)
     }
 }
 
@@ -322,6 +340,129 @@ pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
         nav_commands,
         nav_command,
     })
+}
+
+/// What `traction::Estimator` made of the sample's IMU, wheel and flow
+/// records ([`run_estimator`]).
+#[derive(Clone, Debug)]
+pub struct EstimatorRun {
+    /// Samples processed (each `poll` that gave one).
+    pub processed: u32,
+    /// Camera motions of the sample not offered (the estimator takes
+    /// frames, not motions).
+    pub camera_skipped: u32,
+    /// The estimate after the last sample.
+    pub position: Option<Vec3>,
+    /// Its velocity.
+    pub velocity: Option<Vec3>,
+    /// Per-stream counts: (fused, gated, rejected).
+    pub counts: [(u32, u32, u32); 3],
+}
+
+/// Configures `est` in place from the sample's header and feeds it every
+/// IMU, wheel and flow record through `offer` and `poll`, every call
+/// through `probe`; then drains it.
+pub fn run_estimator<const R: usize, const T: usize, const J: usize, const W: usize>(
+    data: &[u8],
+    est: &mut EstimatorWith<'_, R, T, J, W>,
+    probe: &mut impl Probe,
+) -> Result<EstimatorRun, RunError> {
+    let (header, records) = open(data).map_err(RunError::Format)?;
+    let config = EstimatorConfig::from_robot(&robot(&header)?).map_err(|e| match e {
+        EstimatorError::Robot(e) => RunError::Robot(e),
+        _ => RunError::Config("estimator"),
+    })?;
+    probe
+        .measure(Step::EstConfigure, || est.configure(&config))
+        .map_err(|_| RunError::Config("estimator"))?;
+    let mut run = EstimatorRun {
+        processed: 0,
+        camera_skipped: 0,
+        position: None,
+        velocity: None,
+        counts: [(0, 0, 0); 3],
+    };
+    for record in records {
+        let record = record.map_err(RunError::Format)?;
+        let event = match record {
+            Record::Imu(raw) => Event::Imu(raw),
+            Record::Wheel(ticks) => Event::Wheel(ticks),
+            Record::Flow(s) => Event::Flow(s),
+            Record::Camera(_) => {
+                run.camera_skipped += 1;
+                continue;
+            }
+        };
+        let _ = probe.measure(Step::EstOffer, || {
+            est.offer(event);
+            Ok::<(), ()>(())
+        });
+        run.processed += drain(est, probe);
+    }
+    est.finish();
+    run.processed += drain(est, probe);
+    let e = est.estimate();
+    run.position = e.map(|e| e.p_wb);
+    run.velocity = e.map(|e| e.v_b);
+    let c = est.counts();
+    for (slot, s) in run
+        .counts
+        .iter_mut()
+        .zip([Stream::Imu, Stream::Wheel, Stream::Flow])
+    {
+        let s = &c[s];
+        *slot = (s.fused(), s.gated(), s.rejected_total());
+    }
+    Ok(run)
+}
+
+/// Polls `est` until it has nothing ready; gives the samples processed.
+fn drain<const R: usize, const T: usize, const J: usize, const W: usize>(
+    est: &mut EstimatorWith<'_, R, T, J, W>,
+    probe: &mut impl Probe,
+) -> u32 {
+    let mut n = 0;
+    while probe
+        .measure(Step::EstPoll, || est.poll().ok_or(()))
+        .is_ok()
+    {
+        n += 1;
+    }
+    n
+}
+
+impl EstimatorRun {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f(
+            "estimator.samples",
+            &[Value::N(self.processed), Value::N(self.camera_skipped)],
+        );
+        let v3 = |v: Option<Vec3>| v.map(|v| [Value::F(v.x), Value::F(v.y), Value::F(v.z)]);
+        f(
+            "estimator.position",
+            &v3(self.position).unwrap_or([Value::N(0); 3]),
+        );
+        f(
+            "estimator.velocity",
+            &v3(self.velocity).unwrap_or([Value::N(0); 3]),
+        );
+        for (name, (a, b, c)) in [
+            "estimator.imu_counts",
+            "estimator.wheel_counts",
+            "estimator.flow_counts",
+        ]
+        .iter()
+        .zip(self.counts)
+        {
+            f(name, &[Value::N(a), Value::N(b), Value::N(c)]);
+        }
+    }
+
+    /// Writes one line `result NAME V...` per quantity.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
 }
 
 /// What the camera path made of the embedded frames.

@@ -3,11 +3,38 @@
 //! word the call overwrote (the high-water mark).
 //!
 //! Nothing else runs (no interrupt is enabled), so the free stack below the
-//! stack pointer belongs to the call alone. A call that happens to write the
+//! stack pointer belongs to the call alone. A call of `traction::Estimator`
+//! is held to [`ESTIMATOR_LIMIT`]: the painted words below the limit are a
+//! canary, checked after the call (the [`crate::meter::Meter`] records the
+//! first call past it, and the firmware reports it as an error and fails). A call that happens to write the
 //! pattern itself at its deepest word is undercounted by at most that word.
 
 /// Bytes painted below the stack pointer; deeper use is reported as "at least".
 pub const DEPTH: usize = 48 * 1024;
+/// Stack limit of one `traction::Estimator` call (issue 21: 16 KB);
+/// `FIRMWARE_ESTIMATOR_STACK_LIMIT=<bytes>` at build time sets another (a
+/// small one shows the check firing).
+pub const ESTIMATOR_LIMIT: usize = match option_env!("FIRMWARE_ESTIMATOR_STACK_LIMIT") {
+    Some(s) => parse(s),
+    None => 16 * 1024,
+};
+
+/// A decimal number; 0 for anything else.
+const fn parse(s: &str) -> usize {
+    let b = s.as_bytes();
+    let mut i = 0;
+    let mut n = 0usize;
+    while i < b.len() {
+        let d = b[i];
+        if !d.is_ascii_digit() {
+            return 0;
+        }
+        n = n * 10 + (d - b'0') as usize;
+        i += 1;
+    }
+    n
+}
+
 /// The pattern.
 pub const PATTERN: u32 = 0xC0DE_5A5A;
 

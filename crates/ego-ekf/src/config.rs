@@ -41,19 +41,24 @@ pub struct RobotPrior {
 impl Default for RobotPrior {
     /// A robot vacuum: 35 mm wheels, 230 mm track, IMU 60 mm above the floor on the axle.
     fn default() -> Self {
-        RobotPrior {
-            p_bl: Vec3::new(0.0, 0.115, -0.06),
-            p_br: Vec3::new(0.0, -0.115, -0.06),
-            q_rb: Quat::identity(),
-            radius: 0.035,
-            contact_std: 0.003,
-            rotation_std: 0.01,
-            radius_std: 0.001,
-            radius_random_walk: 1.0e-6,
-            contact_random_walk: 1.0e-6,
-            rotation_random_walk: 1.0e-6,
-        }
+        Self::DEFAULT
     }
+}
+
+impl RobotPrior {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = RobotPrior {
+        p_bl: Vec3::new(0.0, 0.115, -0.06),
+        p_br: Vec3::new(0.0, -0.115, -0.06),
+        q_rb: Quat::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+        radius: 0.035,
+        contact_std: 0.003,
+        rotation_std: 0.01,
+        radius_std: 0.001,
+        radius_random_walk: 1.0e-6,
+        contact_random_walk: 1.0e-6,
+        rotation_random_walk: 1.0e-6,
+    };
 }
 
 impl RobotPrior {
@@ -101,17 +106,22 @@ pub struct ZuptConfig {
 
 impl Default for ZuptConfig {
     fn default() -> Self {
-        ZuptConfig {
-            max_wheel_rate: 0.01,
-            max_gyro: 0.02,
-            max_accel_deviation: 0.3,
-            still_samples: 50,
-            every: 10,
-            velocity_std: 0.005,
-            position_std: 0.001,
-            attitude_std: 0.001,
-        }
+        Self::DEFAULT
     }
+}
+
+impl ZuptConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = ZuptConfig {
+        max_wheel_rate: 0.01,
+        max_gyro: 0.02,
+        max_accel_deviation: 0.3,
+        still_samples: 50,
+        every: 10,
+        velocity_std: 0.005,
+        position_std: 0.001,
+        attitude_std: 0.001,
+    };
 }
 
 /// The floor constraint ([`crate::floor`]): the robot origin stays on the
@@ -144,18 +154,23 @@ pub struct FloorConfig {
 
 impl Default for FloorConfig {
     fn default() -> Self {
-        FloorConfig {
-            every: 25,
-            height_std: 0.005,
-            height_huber: 3.0,
-            vertical_velocity_std: 0.01,
-            max_slope: 0.05,
-            // chi-square, 1 degree of freedom, 99.9 %.
-            climb_gate: 10.83,
-            level_change: 0.05,
-            reanchor_after: 100,
-        }
+        Self::DEFAULT
     }
+}
+
+impl FloorConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = FloorConfig {
+        every: 25,
+        height_std: 0.005,
+        height_huber: 3.0,
+        vertical_velocity_std: 0.01,
+        max_slope: 0.05,
+        // chi-square, 1 degree of freedom, 99.9 %.
+        climb_gate: 10.83,
+        level_change: 0.05,
+        reanchor_after: 100,
+    };
 }
 
 /// The camera's relative motions as pose measurements (see
@@ -203,19 +218,24 @@ impl CameraConfig {
 impl Default for CameraConfig {
     /// A camera at the IMU; a homography from a textured ceiling.
     fn default() -> Self {
-        CameraConfig {
-            q_ic: Quat::identity(),
-            t_ic: Vec3::zeros(),
-            rotation_std: 5.0e-4,
-            translation_rel_std: 0.02,
-            translation_std: 0.0005,
-            // chi-square, 99.9 %: 3 and 6 degrees of freedom.
-            rotation_gate: 16.27,
-            pose_gate: 22.46,
-            translation: true,
-            max_lag_ns: 20_000_000,
-        }
+        Self::DEFAULT
     }
+}
+
+impl CameraConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = CameraConfig {
+        q_ic: Quat::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+        t_ic: Vec3::new(0.0, 0.0, 0.0),
+        rotation_std: 5.0e-4,
+        translation_rel_std: 0.02,
+        translation_std: 0.0005,
+        // chi-square, 99.9 %: 3 and 6 degrees of freedom.
+        rotation_gate: 16.27,
+        pose_gate: 22.46,
+        translation: true,
+        max_lag_ns: 20_000_000,
+    };
 }
 
 /// Initialisation from the first still IMU samples.
@@ -270,29 +290,34 @@ impl InitConfig {
 
 impl Default for InitConfig {
     fn default() -> Self {
-        InitConfig {
-            samples: 50,
-            max_gyro: 0.05,
-            max_accel_deviation: 0.5,
-            tilt_std: 0.01,
-            yaw_std: 0.01,
-            velocity_std: 0.01,
-            position_std: 0.001,
-            accel_bias_std: 0.05,
-            gyro_bias_std: 0.005,
-            // The sensitivity tolerance of consumer MEMS gyros (BMI088
-            // datasheet, BST-BMI088-DS001, table 2: +-1 % typical).
-            gyro_scale_std: 0.02,
-            // Gravity's direction defines the world's z; only its size is
-            // uncertain, and little.
-            gravity_std: 0.001,
-            // 0.5 s at 250 Hz; 3 degrees; up to 1 m/s.
-            moving_samples: 125,
-            moving_max_accel_deviation: 0.5,
-            moving_tilt_std: 0.05,
-            moving_velocity_std: 1.0,
-        }
+        Self::DEFAULT
     }
+}
+
+impl InitConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = InitConfig {
+        samples: 50,
+        max_gyro: 0.05,
+        max_accel_deviation: 0.5,
+        tilt_std: 0.01,
+        yaw_std: 0.01,
+        velocity_std: 0.01,
+        position_std: 0.001,
+        accel_bias_std: 0.05,
+        gyro_bias_std: 0.005,
+        // The sensitivity tolerance of consumer MEMS gyros (BMI088
+        // datasheet, BST-BMI088-DS001, table 2: +-1 % typical).
+        gyro_scale_std: 0.02,
+        // Gravity's direction defines the world's z; only its size is
+        // uncertain, and little.
+        gravity_std: 0.001,
+        // 0.5 s at 250 Hz; 3 degrees; up to 1 m/s.
+        moving_samples: 125,
+        moving_max_accel_deviation: 0.5,
+        moving_tilt_std: 0.05,
+        moving_velocity_std: 1.0,
+    };
 }
 
 /// The wheel encoders' timing and how long a gated run lasts before the
@@ -316,12 +341,17 @@ impl Default for WheelConfig {
     /// Steps up to 0.2 s, samples within 50 ms of the filter's time,
     /// re-examination after 25 gated updates (0.5 s at 50 Hz).
     fn default() -> Self {
-        WheelConfig {
-            max_dt_ns: 200_000_000,
-            max_age_ns: 50_000_000,
-            reexamine_after_gated: 25,
-        }
+        Self::DEFAULT
     }
+}
+
+impl WheelConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = WheelConfig {
+        max_dt_ns: 200_000_000,
+        max_age_ns: 50_000_000,
+        reexamine_after_gated: 25,
+    };
 }
 
 /// The optical-flow sensor: optics, noise model, gate and timing.
@@ -416,13 +446,18 @@ impl Default for RecoveryConfig {
     /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
     /// only when its mean is known to 0.2 m/s.
     fn default() -> Self {
-        RecoveryConfig {
-            wheel_min_grip: 0.85,
-            steady_tolerance: 0.05,
-            silence_ns: 500_000_000,
-            flow_witness_max_std: 0.2,
-        }
+        Self::DEFAULT
     }
+}
+
+impl RecoveryConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = RecoveryConfig {
+        wheel_min_grip: 0.85,
+        steady_tolerance: 0.05,
+        silence_ns: 500_000_000,
+        flow_witness_max_std: 0.2,
+    };
 }
 
 /// What the filter assumes about motion it did not measure (an IMU gap).
@@ -447,13 +482,18 @@ impl Default for GapConfig {
     /// A robot vacuum: about 0.5 m/s^2 and 1 rad/s in one second; wheels
     /// dead-reckon gaps, up to 2 m/s per wheel.
     fn default() -> Self {
-        GapConfig {
-            accel_density: 0.5,
-            gyro_density: 1.0,
-            wheels: true,
-            max_wheel_speed: 2.0,
-        }
+        Self::DEFAULT
     }
+}
+
+impl GapConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = GapConfig {
+        accel_density: 0.5,
+        gyro_density: 1.0,
+        wheels: true,
+        max_wheel_speed: 2.0,
+    };
 }
 
 /// The IMU: its noise, its timing and its full scale.
@@ -493,15 +533,20 @@ pub struct ImuConfig {
 impl Default for ImuConfig {
     /// A consumer MEMS IMU at up to 20 ms a step, +-2000 deg/s and +-16 g.
     fn default() -> Self {
-        ImuConfig {
-            noise: ImuNoise::default(),
-            max_dt_ns: 20_000_000,
-            gyro_max: 35.0,
-            accel_max: 160.0,
-            estimate_gyro_scale: false,
-            gyro_scale_random_walk: 1.0e-5,
-        }
+        Self::DEFAULT
     }
+}
+
+impl ImuConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = ImuConfig {
+        noise: ImuNoise::DEFAULT,
+        max_dt_ns: 20_000_000,
+        gyro_max: 35.0,
+        accel_max: 160.0,
+        estimate_gyro_scale: false,
+        gyro_scale_random_walk: 1.0e-5,
+    };
 }
 
 /// Everything the filter needs to know before the first sample: one config
@@ -537,21 +582,26 @@ pub struct FilterConfig {
 
 impl Default for FilterConfig {
     fn default() -> Self {
-        FilterConfig {
-            imu: ImuConfig::default(),
-            wheel: WheelConfig::default(),
-            recovery: RecoveryConfig::default(),
-            gap: GapConfig::default(),
-            robot: RobotPrior::default(),
-            init: InitConfig::default(),
-            zupt: ZuptConfig::default(),
-            flow: None,
-            floor: Some(FloorConfig::default()),
-            camera: None,
-            grip: GripParams::default(),
-            gravity: crate::state::STANDARD_GRAVITY,
-        }
+        Self::DEFAULT
     }
+}
+
+impl FilterConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = FilterConfig {
+        imu: ImuConfig::DEFAULT,
+        wheel: WheelConfig::DEFAULT,
+        recovery: RecoveryConfig::DEFAULT,
+        gap: GapConfig::DEFAULT,
+        robot: RobotPrior::DEFAULT,
+        init: InitConfig::DEFAULT,
+        zupt: ZuptConfig::DEFAULT,
+        flow: None,
+        floor: Some(FloorConfig::DEFAULT),
+        camera: None,
+        grip: GripParams::DEFAULT,
+        gravity: crate::state::STANDARD_GRAVITY,
+    };
 }
 
 /// IMU rate, Hz, that the defaults' sample counts are written for: 50 still

@@ -137,17 +137,22 @@ impl Default for JoltConfig {
     /// arrival), samples
     /// more than 50 ms apart are a gap.
     fn default() -> Self {
-        JoltConfig {
-            window_ns: 60_000_000,
-            refractory_ns: 150_000_000,
-            onset_level: 1.5,
-            onset_fraction: 0.6,
-            rearm_fraction: 0.5,
-            crossing_time_ns: 500_000_000,
-            crossing_distance: 0.15,
-            max_step_ns: 50_000_000,
-        }
+        Self::DEFAULT
     }
+}
+
+impl JoltConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = JoltConfig {
+        window_ns: 60_000_000,
+        refractory_ns: 150_000_000,
+        onset_level: 1.5,
+        onset_fraction: 0.6,
+        rearm_fraction: 0.5,
+        crossing_time_ns: 500_000_000,
+        crossing_distance: 0.15,
+        max_step_ns: 50_000_000,
+    };
 }
 
 impl JoltConfig {
@@ -271,7 +276,7 @@ pub struct JoltDetector {
 
 impl JoltDetector {
     /// A detector, armed.
-    pub fn new(config: JoltConfig) -> Self {
+    pub const fn new(config: JoltConfig) -> Self {
         JoltDetector {
             config,
             clock: SampleClock::new(config.max_step_ns),
@@ -421,6 +426,13 @@ pub struct JoltCounters {
 }
 
 impl JoltCounters {
+    /// Nothing counted.
+    pub const fn new() -> Self {
+        JoltCounters {
+            counts: [0; JoltKind::COUNT],
+        }
+    }
+
     /// Counts one event.
     pub fn count(&mut self, kind: JoltKind) {
         if let Some(c) = self.counts.get_mut(kind as usize) {
@@ -448,10 +460,10 @@ pub struct JoltMonitor<const N: usize> {
 
 impl<const N: usize> JoltMonitor<N> {
     /// A monitor with an empty log.
-    pub fn new(config: JoltConfig) -> Self {
+    pub const fn new(config: JoltConfig) -> Self {
         JoltMonitor {
             detector: JoltDetector::new(config),
-            counters: JoltCounters::default(),
+            counters: JoltCounters::new(),
             log: Deque::new(),
             dropped: 0,
         }

@@ -182,6 +182,31 @@ pub struct GapCounts {
     pub by_wheels: u32,
 }
 
+/// The identity covariance, evaluated at compile time (an index out of
+/// range would be a compile error, not a panic).
+#[allow(clippy::indexing_slicing)]
+const IDENTITY_COVARIANCE: Covariance = {
+    let mut a = [[0.0f32; crate::state::DIM]; crate::state::DIM];
+    let mut i = 0;
+    while i < crate::state::DIM {
+        a[i][i] = 1.0;
+        i += 1;
+    }
+    Covariance::from_array_storage(nalgebra::ArrayStorage(a))
+};
+
+impl GapCounts {
+    /// Nothing bridged.
+    pub const fn new() -> Self {
+        GapCounts {
+            bridged: 0,
+            total_ns: 0,
+            longest_ns: 0,
+            by_wheels: 0,
+        }
+    }
+}
+
 /// Short name of [`EgoEkf`].
 pub type Filter = EgoEkf;
 
@@ -189,26 +214,91 @@ impl EgoEkf {
     /// A filter waiting for still IMU samples (or [`EgoEkf::start`]).
     pub fn new(config: FilterConfig) -> Result<Self, ConfigError> {
         config.check()?;
+        Ok(Self::unchecked(config))
+    }
+
+    /// A filter with the default configuration ([`FilterConfig::DEFAULT`]),
+    /// waiting for still IMU samples: a `const` value, so that a filter can
+    /// live in a `static` and be configured there ([`EgoEkf::reset`])
+    /// without a filter-sized value passing through the stack.
+    pub const fn unconfigured() -> Self {
+        Self::unchecked(FilterConfig::DEFAULT)
+    }
+
+    /// Starts over in place with `config` (a checked configuration), as
+    /// [`EgoEkf::new`] would build it: every field is written where it is,
+    /// the covariance set to the identity in place. A refused configuration
+    /// leaves the filter as it was.
+    pub fn reset(&mut self, config: FilterConfig) -> Result<(), ConfigError> {
+        config.check()?;
+        self.x = Self::nominal(&config);
+        self.p.fill_with_identity();
+        self.grip = config.grip;
+        self.initialised = false;
+        self.initialiser = Initialiser::new();
+        self.imu_clock = SampleClock::new(config.imu.max_dt_ns);
+        self.imu_counts = SampleCounts::new();
+        self.last_step = None;
+        self.still = StillDetector::new();
+        self.zupt = ZuptFusion::new();
+        self.floor = FloorFusion::new();
+        self.wheel = Self::wheel_fusion(&config);
+        self.flow = Self::flow_fusion(&config);
+        self.recovery = RecoveryCounts::new();
+        self.refutation = Refutation::new();
+        self.distrust = WheelDistrust::new();
+        self.gaps = GapCounts::new();
+        self.gap_odometry = GapOdometry::new();
+        self.clone = CloneUse::Still;
+        self.camera = CameraFusion::new();
+        self.last_imu = None;
+        self.config = config;
+        Ok(())
+    }
+
+    const fn nominal(config: &FilterConfig) -> NominalState {
         let r = &config.robot;
-        let x = NominalState {
-            p_wb: Vec3::zeros(),
-            v_wb: Vec3::zeros(),
-            q_wb: Quat::identity(),
-            accel_bias: Vec3::zeros(),
-            gyro_bias: Vec3::zeros(),
+        let zero = Vec3::new(0.0, 0.0, 0.0);
+        let identity = Quat::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0));
+        NominalState {
+            p_wb: zero,
+            v_wb: zero,
+            q_wb: identity,
+            accel_bias: zero,
+            gyro_bias: zero,
             gravity: Vec3::new(0.0, 0.0, -config.gravity),
             gyro_scale: 0.0,
-            clone_p_wb: Vec3::zeros(),
-            clone_q_wb: Quat::identity(),
+            clone_p_wb: zero,
+            clone_q_wb: identity,
             p_bl: r.p_bl,
             p_br: r.p_br,
             q_rb: r.q_rb,
             radius_left: r.radius,
             radius_right: r.radius,
-        };
-        Ok(EgoEkf {
-            x,
-            p: Covariance::identity(),
+        }
+    }
+
+    const fn wheel_fusion(config: &FilterConfig) -> WheelFusion {
+        WheelFusion::new(
+            config.wheel.max_dt_ns,
+            config.wheel.max_age_ns,
+            config.zupt.max_wheel_rate,
+        )
+        .with_gyro_scale(config.imu.estimate_gyro_scale)
+    }
+
+    const fn flow_fusion(config: &FilterConfig) -> FlowFusion {
+        match config.flow {
+            Some(f) => FlowFusion::new(f.max_dt_ns, f.max_age_ns, f.window_ns, f.base_std),
+            None => FlowFusion::new(1, 1, 1, 0.0),
+        }
+    }
+
+    /// The filter of `config` without checking it.
+    const fn unchecked(config: FilterConfig) -> Self {
+        EgoEkf {
+            x: Self::nominal(&config),
+            p: IDENTITY_COVARIANCE,
             grip: config.grip,
             initialised: false,
             initialiser: Initialiser::new(),
@@ -218,28 +308,18 @@ impl EgoEkf {
             still: StillDetector::new(),
             zupt: ZuptFusion::new(),
             floor: FloorFusion::new(),
-            wheel: WheelFusion::new(
-                config.wheel.max_dt_ns,
-                config.wheel.max_age_ns,
-                config.zupt.max_wheel_rate,
-            )
-            .with_gyro_scale(config.imu.estimate_gyro_scale),
-            flow: FlowFusion::new(
-                config.flow.map_or(1, |f| f.max_dt_ns),
-                config.flow.map_or(1, |f| f.max_age_ns),
-                config.flow.map_or(1, |f| f.window_ns),
-                config.flow.map_or(0.0, |f| f.base_std),
-            ),
-            recovery: RecoveryCounts::default(),
-            refutation: Refutation::default(),
-            distrust: WheelDistrust::default(),
-            gaps: GapCounts::default(),
+            wheel: Self::wheel_fusion(&config),
+            flow: Self::flow_fusion(&config),
+            recovery: RecoveryCounts::new(),
+            refutation: Refutation::new(),
+            distrust: WheelDistrust::new(),
+            gaps: GapCounts::new(),
             gap_odometry: GapOdometry::new(),
             clone: CloneUse::Still,
             camera: CameraFusion::new(),
             last_imu: None,
             config,
-        })
+        }
     }
 
     /// Starts from an explicit state, with the configured initial standard

@@ -42,16 +42,21 @@ impl core::error::Error for GripError {}
 impl Default for GripParams {
     /// A hard floor with good grip (wood-like).
     fn default() -> Self {
-        GripParams {
-            grip: 0.95,
-            forward_std: 0.02,
-            lateral_std: 0.01,
-            forward_gate: 6.63, // chi-square, 1 DOF, 99 %
-            jolt_threshold: 2.0,
-            slip: 0.0,
-            learn_radius: true,
-        }
+        Self::DEFAULT
     }
+}
+
+impl GripParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = GripParams {
+        grip: 0.95,
+        forward_std: 0.02,
+        lateral_std: 0.01,
+        forward_gate: 6.63, // chi-square, 1 DOF, 99 %
+        jolt_threshold: 2.0,
+        slip: 0.0,
+        learn_radius: true,
+    };
 }
 
 impl GripParams {

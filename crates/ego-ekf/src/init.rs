@@ -48,8 +48,14 @@ pub struct Initialiser {
 
 impl Initialiser {
     /// Nothing averaged yet.
-    pub fn new() -> Self {
-        Self::default()
+    pub const fn new() -> Self {
+        Initialiser {
+            sum_accel: Vec3::new(0.0, 0.0, 0.0),
+            sum_gyro: Vec3::new(0.0, 0.0, 0.0),
+            n: 0,
+            moving_accel: Vec3::new(0.0, 0.0, 0.0),
+            moving_n: 0,
+        }
     }
 
     /// Samples averaged so far.

@@ -154,9 +154,10 @@ pub struct FlowWindow {
 
 impl FlowWindow {
     /// An empty window `window_ns` long.
-    pub fn new(window_ns: u64, floor_std: f32) -> Self {
+    pub const fn new(window_ns: u64, floor_std: f32) -> Self {
+        let half_ns = window_ns / 2;
         FlowWindow {
-            half_ns: (window_ns / 2).max(1),
+            half_ns: if half_ns > 1 { half_ns } else { 1 },
             floor_std,
             previous: None,
             current: None,
@@ -233,6 +234,17 @@ pub struct GatedRun {
 }
 
 impl GatedRun {
+    /// No run.
+    pub const fn new() -> Self {
+        GatedRun {
+            len: 0,
+            steady_len: 0,
+            reference: 0.0,
+            previous: 0.0,
+            trusted_onset: false,
+        }
+    }
+
     /// Gated updates in the run.
     pub fn len(&self) -> u16 {
         self.len
@@ -303,6 +315,15 @@ pub struct WheelWatch {
 }
 
 impl WheelWatch {
+    /// Nothing watched yet.
+    pub const fn new() -> Self {
+        WheelWatch {
+            run: GatedRun::new(),
+            last_fused: None,
+            resumed: None,
+        }
+    }
+
     /// The current run of gated updates.
     pub fn run(&self) -> &GatedRun {
         &self.run
@@ -421,6 +442,11 @@ pub struct Refutation {
 }
 
 impl Refutation {
+    /// No standing verdict.
+    pub const fn new() -> Self {
+        Refutation { confirmed: None }
+    }
+
     /// The wheels are refuted from `t`.
     pub fn refute(&mut self, t: Timestamp) {
         self.confirmed = Some(t);
@@ -582,6 +608,17 @@ pub struct RecoveryCounts {
 }
 
 impl RecoveryCounts {
+    /// Nothing counted.
+    pub const fn new() -> Self {
+        RecoveryCounts {
+            resets_to_flow: 0,
+            resets_to_wheels: 0,
+            wheels_slip: 0,
+            no_trusted_source: 0,
+            last: None,
+        }
+    }
+
     /// Counts one verdict made at `t`.
     pub fn record(&mut self, t: Timestamp, verdict: Verdict) {
         let slot = match verdict {

@@ -39,7 +39,7 @@ mod replay;
 #[path = "../../../firmware/src/budget.rs"]
 mod budget;
 
-use replay::{FrontEndRun, NoProbe, SegmentRun, Summary, Value};
+use replay::{EstimatorRun, FrontEndRun, NoProbe, SegmentRun, Summary, Value};
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
 
@@ -50,6 +50,7 @@ static FRAMES: &[u8] = include_bytes!("../../../firmware/data/frames160.bin");
 /// the floor segmenter.
 struct Host {
     summary: Summary,
+    estimator: EstimatorRun,
     frontend: FrontEndRun,
     segment: SegmentRun,
 }
@@ -59,6 +60,7 @@ impl Host {
         let mut v = Vec::new();
         let mut push = |name: &str, values: &[Value]| v.push((name.to_string(), values.to_vec()));
         self.summary.for_each(&mut push);
+        self.estimator.for_each(&mut push);
         self.frontend.for_each(&mut push);
         self.segment.for_each(&mut push);
         v
@@ -67,6 +69,7 @@ impl Host {
     fn text(&self) -> String {
         let mut text = String::new();
         self.summary.write(&mut text).unwrap();
+        self.estimator.write(&mut text).unwrap();
         self.frontend.write(&mut text).unwrap();
         self.segment.write(&mut text).unwrap();
         text
@@ -80,6 +83,9 @@ const ABS_TOL: f32 = 1e-5;
 
 fn host_run() -> Host {
     let summary = replay::run(SAMPLE, &mut NoProbe).expect("the sample data runs");
+    let mut est: Box<traction::Estimator<'static>> = Box::new(traction::Estimator::unconfigured());
+    let estimator =
+        replay::run_estimator(SAMPLE, &mut *est, &mut NoProbe).expect("the estimator runs");
     let (header, _) = sample::open(SAMPLE).unwrap();
     let (fh, _) = frames::open(FRAMES).expect("frame data");
     // FrontEndConfig::new's defaults: 3 levels, 3x3 corner blocks.
@@ -98,6 +104,7 @@ fn host_run() -> Host {
     let segment = replay::run_segment(FRAMES, &mut map, &mut NoProbe).expect("the frames label");
     Host {
         summary,
+        estimator,
         frontend,
         segment,
     }
@@ -203,6 +210,17 @@ fn host_loop_runs_the_sample_data() {
         3001 + 601 + 1200 + 120,
         "no other stream in the data"
     );
+    // The same records through `traction::Estimator`: every IMU, wheel and
+    // flow record processed and counted once, the drive found again.
+    let e = &host.estimator;
+    assert_eq!(e.processed, 3001 + 601 + 1200);
+    assert_eq!(e.camera_skipped, 120);
+    for ((fused, gated, rejected), n) in e.counts.iter().zip([3001, 601, 1200]) {
+        assert_eq!(fused + gated + rejected, n);
+        assert!(*fused > n * 9 / 10, "{fused} of {n} fused");
+    }
+    let ep = e.position.expect("the estimator started");
+    assert!(ep.x > 2.5 && ep.x < 4.0, "estimator position {ep:?}");
     assert!(s.ekf.is_initialised());
     let imu = s.ekf.imu_counts();
     assert!(imu.fused() > 2900, "IMU fused {}", imu.fused());

@@ -163,13 +163,18 @@ impl SlotLengths {
 
 impl Default for SlotLengths {
     fn default() -> Self {
-        SlotLengths {
-            wheel: DAY_NS,
-            flow: DAY_NS / 4,
-            camera: DAY_NS / 4,
-            imu: DAY_NS,
-        }
+        Self::DEFAULT
     }
+}
+
+impl SlotLengths {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = SlotLengths {
+        wheel: DAY_NS,
+        flow: DAY_NS / 4,
+        camera: DAY_NS / 4,
+        imu: DAY_NS,
+    };
 }
 
 /// A day, nanoseconds.
@@ -196,15 +201,20 @@ pub struct AdverseParams {
 
 impl Default for AdverseParams {
     fn default() -> Self {
-        AdverseParams {
-            cell_size: 0.5,
-            cycle_ns: DAY_NS,
-            slot_ns: SlotLengths::default(),
-            decay_period_ns: DAY_NS,
-            decay_factor: 0.5,
-            weight_per_event: 0.5,
-        }
+        Self::DEFAULT
     }
+}
+
+impl AdverseParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = AdverseParams {
+        cell_size: 0.5,
+        cycle_ns: DAY_NS,
+        slot_ns: SlotLengths::DEFAULT,
+        decay_period_ns: DAY_NS,
+        decay_factor: 0.5,
+        weight_per_event: 0.5,
+    };
 }
 
 impl AdverseParams {
@@ -330,16 +340,39 @@ impl<const CELLS: usize, const SLOTS: usize> AdverseMemory<CELLS, SLOTS> {
 
     /// An empty memory.
     pub fn new(params: AdverseParams) -> Result<Self, AdverseError> {
-        if !params.is_valid(SLOTS) || CELLS == 0 || SLOTS == 0 || CELLS > u16::MAX as usize {
-            return Err(AdverseError::BadParams);
-        }
-        Ok(AdverseMemory {
+        Self::check(&params)?;
+        Ok(Self::empty(params))
+    }
+
+    /// An empty memory with `params` unchecked (a `const` value; see
+    /// [`AdverseMemory::reset`]).
+    pub const fn empty(params: AdverseParams) -> Self {
+        AdverseMemory {
             params,
             cells: heapless::Vec::new(),
             evicted: 0,
             tallies: [[0; AdverseKind::COUNT]; SensorKind::COUNT],
             decayed_to: None,
-        })
+        }
+    }
+
+    /// Empties the memory in place and takes `params`, as
+    /// [`AdverseMemory::new`]; refused settings change nothing.
+    pub fn reset(&mut self, params: AdverseParams) -> Result<(), AdverseError> {
+        Self::check(&params)?;
+        self.params = params;
+        self.cells.clear();
+        self.evicted = 0;
+        self.tallies = [[0; AdverseKind::COUNT]; SensorKind::COUNT];
+        self.decayed_to = None;
+        Ok(())
+    }
+
+    fn check(params: &AdverseParams) -> Result<(), AdverseError> {
+        if !params.is_valid(SLOTS) || CELLS == 0 || SLOTS == 0 || CELLS > u16::MAX as usize {
+            return Err(AdverseError::BadParams);
+        }
+        Ok(())
     }
 
     /// The settings.

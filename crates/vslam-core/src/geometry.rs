@@ -63,12 +63,17 @@ impl Extrinsics {
     pub const ROTATION_TOLERANCE: f32 = 1e-3;
 
     /// A sensor at the body origin, axes aligned with the body.
-    pub fn identity() -> Self {
-        Extrinsics {
-            r_bs: Rot3::identity(),
-            t_bs: Vec3::zeros(),
-        }
+    pub const fn identity() -> Self {
+        Self::IDENTITY
     }
+
+    /// [`Extrinsics::identity`] as a constant.
+    pub const IDENTITY: Self = Extrinsics {
+        r_bs: Rot3::from_matrix_unchecked(nalgebra::Matrix3::new(
+            1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0,
+        )),
+        t_bs: Vec3::new(0.0, 0.0, 0.0),
+    };
 
     /// From a rotation and a translation (already a proper rotation by type).
     pub fn new(r_bs: Rot3, t_bs: Vec3) -> Result<Self, TransformError> {

@@ -18,6 +18,12 @@ use crate::time::Timestamp;
 /// A rigid pose, `f32`.
 pub type Pose = Isometry3<f32>;
 
+/// The identity pose, as a constant.
+pub const POSE_IDENTITY: Pose = Pose::from_parts(
+    nalgebra::Translation3::new(0.0, 0.0, 0.0),
+    nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+);
+
 /// The mounting `T_BC` as a pose.
 pub fn mounting_pose(e: &Extrinsics) -> Pose {
     Pose::from_parts(
@@ -72,6 +78,27 @@ impl<D: Copy, const N: usize> Trajectory<D, N> {
             frames: 0,
             recent: Deque::new(),
         }
+    }
+
+    /// At the identity body pose with the camera at the body origin (a
+    /// `const` value; see [`Trajectory::reset`]).
+    pub const fn at_origin() -> Self {
+        Trajectory {
+            camera: Extrinsics::IDENTITY,
+            current: POSE_IDENTITY,
+            t: None,
+            frames: 0,
+            recent: Deque::new(),
+        }
+    }
+
+    /// Starts over in place, as [`Trajectory::new`].
+    pub fn reset(&mut self, t_wb0: Pose, camera: Extrinsics) {
+        self.camera = camera;
+        self.current = camera_from_body(&t_wb0, &camera);
+        self.t = None;
+        self.frames = 0;
+        self.recent.clear();
     }
 
     /// Composes one frame: `P <- P [R sT; 0 1]` at time `t`, storing `record`.

@@ -69,13 +69,18 @@ pub struct ImuNoise {
 impl Default for ImuNoise {
     /// A consumer MEMS IMU (BMI088 / ICM-42688 class).
     fn default() -> Self {
-        ImuNoise {
-            accel_density: 2.0e-3,
-            gyro_density: 2.0e-4,
-            accel_random_walk: 3.0e-4,
-            gyro_random_walk: 2.0e-5,
-        }
+        Self::DEFAULT
     }
+}
+
+impl ImuNoise {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = ImuNoise {
+        accel_density: 2.0e-3,
+        gyro_density: 2.0e-4,
+        accel_random_walk: 3.0e-4,
+        gyro_random_walk: 2.0e-5,
+    };
 }
 
 /// The drive wheels of a differential-drive (or skid-steer) robot.

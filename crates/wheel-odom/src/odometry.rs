@@ -77,6 +77,18 @@ pub struct DiffDriveParams {
 }
 
 impl DiffDriveParams {
+    /// Valid placeholder settings (1,000 counts per revolution, 35 mm
+    /// wheels 230 mm apart, 2 m/s, 200 ms steps) for odometry that is built
+    /// in a `const` context and configured before use.
+    pub const PLACEHOLDER: Self = DiffDriveParams {
+        ticks_per_revolution: 1000,
+        left_radius: 0.035,
+        right_radius: 0.035,
+        wheel_base: 0.23,
+        max_wheel_speed: 2.0,
+        max_step_ns: 200_000_000,
+    };
+
     /// Checks and builds the parameters: encoder counts per wheel
     /// revolution, wheel radii and wheel base (metres), the fastest a wheel
     /// rim can move (m/s; faster steps are impossible jumps), and the longest

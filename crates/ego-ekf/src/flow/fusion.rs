@@ -79,7 +79,7 @@ impl FlowFusion {
     /// reports within `max_age_ns` of the filter's time, keeping a witness
     /// averaged over `window_ns` whose standard deviation is at least
     /// `floor_std` m/s.
-    pub fn new(max_dt_ns: u64, max_age_ns: u64, window_ns: u64, floor_std: f32) -> Self {
+    pub const fn new(max_dt_ns: u64, max_age_ns: u64, window_ns: u64, floor_std: f32) -> Self {
         FlowFusion {
             clock: SampleClock::new(max_dt_ns),
             max_age_ns,

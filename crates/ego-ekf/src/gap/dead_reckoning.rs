@@ -95,19 +95,24 @@ pub struct DeadReckoning {
 
 impl Default for DeadReckoning {
     fn default() -> Self {
-        DeadReckoning {
-            x: 0.0,
-            y: 0.0,
-            psi: 0.0,
-            noise: Matrix3::zeros(),
-            jacobian: Matrix3::zeros(),
-            elapsed: 0.0,
-            speed: 0.0,
-            yaw_rate: 0.0,
-            rate_jacobian: Matrix2x3::zeros(),
-            rate_var: Vector3::zeros(),
-        }
+        Self::ZERO
     }
+}
+
+impl DeadReckoning {
+    /// No motion integrated (the default), as a constant.
+    pub const ZERO: Self = DeadReckoning {
+        x: 0.0,
+        y: 0.0,
+        psi: 0.0,
+        noise: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        jacobian: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        elapsed: 0.0,
+        speed: 0.0,
+        yaw_rate: 0.0,
+        rate_jacobian: Matrix2x3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        rate_var: Vector3::new(0.0, 0.0, 0.0),
+    };
 }
 
 impl DeadReckoning {

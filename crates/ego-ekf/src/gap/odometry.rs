@@ -81,12 +81,12 @@ impl Default for GapOdometry {
 
 impl GapOdometry {
     /// Nothing integrated.
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         GapOdometry {
             anchor: None,
             last: Timestamp(0),
             last_rates: (0.0, 0.0),
-            motion: DeadReckoning::default(),
+            motion: DeadReckoning::ZERO,
             samples: 0,
             broken: false,
             counts: SampleCounts::new(),

@@ -26,6 +26,15 @@ pub struct WheelDistrust {
 }
 
 impl WheelDistrust {
+    /// No distrust.
+    pub const fn new() -> Self {
+        WheelDistrust {
+            until: None,
+            factor: 0.0,
+            counts: SampleCounts::new(),
+        }
+    }
+
     /// Distrusts the wheels by `factor` (the forward and differential
     /// noise's standard deviation is multiplied by it) for samples taken up
     /// to `until`. A later `until` extends the window; the factor is the

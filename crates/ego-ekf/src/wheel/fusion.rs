@@ -69,7 +69,7 @@ impl WheelFusion {
     /// A fresh status accepting sample intervals up to `max_dt_ns` and
     /// samples within `max_age_ns` of the filter's time; rates below
     /// `stop_rate` (rad/s) on both wheels mean stopped.
-    pub fn new(max_dt_ns: u64, max_age_ns: u64, stop_rate: f32) -> Self {
+    pub const fn new(max_dt_ns: u64, max_age_ns: u64, stop_rate: f32) -> Self {
         WheelFusion {
             clock: SampleClock::new(max_dt_ns),
             counts: SampleCounts::new(),
@@ -77,14 +77,14 @@ impl WheelFusion {
             stopped: false,
             stop_rate,
             max_age_ns,
-            watch: WheelWatch::default(),
+            watch: WheelWatch::new(),
             gyro_scale: false,
         }
     }
 
     /// Whether the rows carry their Jacobian on the gyro's scale factor
     /// ([`crate::config::ImuConfig::estimate_gyro_scale`]; off by default).
-    pub fn with_gyro_scale(mut self, on: bool) -> Self {
+    pub const fn with_gyro_scale(mut self, on: bool) -> Self {
         self.gyro_scale = on;
         self
     }

@@ -33,12 +33,17 @@ pub struct CameraConfidenceParams {
 
 impl Default for CameraConfidenceParams {
     fn default() -> Self {
-        CameraConfidenceParams {
-            min_inliers: 8,
-            good_inliers: 60,
-            residual_half_px: 1.5,
-        }
+        Self::DEFAULT
     }
+}
+
+impl CameraConfidenceParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = CameraConfidenceParams {
+        min_inliers: 8,
+        good_inliers: 60,
+        residual_half_px: 1.5,
+    };
 }
 
 /// Camera confidence: `count * ratio * 1 / (1 + (residual / half)^2)`.
@@ -67,14 +72,19 @@ pub struct FlowConfidenceParams {
 
 impl Default for FlowConfidenceParams {
     fn default() -> Self {
-        FlowConfidenceParams {
-            squal_good: 0x50,
-            shutter_good: 0x0400,
-            shutter_bad: 0x1F00,
-            shutter_floor: 0.2,
-            saturated_factor: 0.1,
-        }
+        Self::DEFAULT
     }
+}
+
+impl FlowConfidenceParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = FlowConfidenceParams {
+        squal_good: 0x50,
+        shutter_good: 0x0400,
+        shutter_bad: 0x1F00,
+        shutter_floor: 0.2,
+        saturated_factor: 0.1,
+    };
 }
 
 /// Confidence of one flow report; zero for reports the datasheet marks unreliable.

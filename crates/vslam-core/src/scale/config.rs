@@ -80,27 +80,32 @@ pub struct PipelineConfig {
 
 impl Default for PipelineConfig {
     fn default() -> Self {
-        PipelineConfig {
-            method: SelectionMethod::Fusion,
-            compose: ComposeScale::Pair,
-            distance: Distance::Chord,
-            camera: Extrinsics::identity(),
-            imu: Extrinsics::identity(),
-            flow_optics: None,
-            initial_body_pose: Pose::identity(),
-            wheel: WheelParams::default(),
-            flow: FlowParams::default(),
-            camera_confidence: CameraConfidenceParams::default(),
-            slip: SlipParams::default(),
-            select: SelectParams::default(),
-            robust: RobustParams::default(),
-            adverse: AdverseParams::default(),
-            imu_max_step_ns: 50_000_000,
-            wheel_outlier_sigmas: 4.0,
-            min_wheel_coverage: 0.5,
-            full_trust_grip: 0.9,
-        }
+        Self::DEFAULT
     }
+}
+
+impl PipelineConfig {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = PipelineConfig {
+        method: SelectionMethod::Fusion,
+        compose: ComposeScale::Pair,
+        distance: Distance::Chord,
+        camera: Extrinsics::IDENTITY,
+        imu: Extrinsics::IDENTITY,
+        flow_optics: None,
+        initial_body_pose: crate::pose::POSE_IDENTITY,
+        wheel: WheelParams::DEFAULT,
+        flow: FlowParams::DEFAULT,
+        camera_confidence: CameraConfidenceParams::DEFAULT,
+        slip: SlipParams::DEFAULT,
+        select: SelectParams::DEFAULT,
+        robust: RobustParams::DEFAULT,
+        adverse: AdverseParams::DEFAULT,
+        imu_max_step_ns: 50_000_000,
+        wheel_outlier_sigmas: 4.0,
+        min_wheel_coverage: 0.5,
+        full_trust_grip: 0.9,
+    };
 }
 
 /// Why a pipeline configuration was refused.

@@ -66,13 +66,18 @@ pub struct FlowParams {
 
 impl Default for FlowParams {
     fn default() -> Self {
-        FlowParams {
-            rel_sigma: 0.02,
-            floor_sigma: 0.0005,
-            max_step_ns: 100_000_000,
-            quality: FlowConfidenceParams::default(),
-        }
+        Self::DEFAULT
     }
+}
+
+impl FlowParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = FlowParams {
+        rel_sigma: 0.02,
+        floor_sigma: 0.0005,
+        max_step_ns: 100_000_000,
+        quality: FlowConfidenceParams::DEFAULT,
+    };
 }
 
 /// The flow over one interval, before the variance.
@@ -104,7 +109,7 @@ pub struct FlowStepWindow<const N: usize> {
 
 impl<const N: usize> FlowStepWindow<N> {
     /// An empty window.
-    pub fn new(params: FlowParams) -> Self {
+    pub const fn new(params: FlowParams) -> Self {
         FlowStepWindow {
             params,
             steps: Deque::new(),
@@ -112,6 +117,15 @@ impl<const N: usize> FlowStepWindow<N> {
             last_t1: None,
             counts: SampleCounts::new(),
         }
+    }
+
+    /// Empties the window in place and takes `params`, as [`FlowStepWindow::new`].
+    pub fn reset(&mut self, params: FlowParams) {
+        self.params = params;
+        self.steps.clear();
+        self.clock = SampleClock::new(params.max_step_ns);
+        self.last_t1 = None;
+        self.counts = SampleCounts::new();
     }
 
     /// The settings.

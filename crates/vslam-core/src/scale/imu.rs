@@ -48,13 +48,21 @@ pub struct ImuWindow<const N: usize> {
 impl<const N: usize> ImuWindow<N> {
     /// An empty window for an IMU mounted by `mount` (`T_BS`); steps longer
     /// than `max_step_ns` are gaps.
-    pub fn new(mount: Extrinsics, max_step_ns: u64) -> Self {
+    pub const fn new(mount: Extrinsics, max_step_ns: u64) -> Self {
         ImuWindow {
             mount,
             spans: Deque::new(),
             clock: SampleClock::new(max_step_ns),
             counts: SampleCounts::new(),
         }
+    }
+
+    /// Empties the window in place, as [`ImuWindow::new`].
+    pub fn reset(&mut self, mount: Extrinsics, max_step_ns: u64) {
+        self.mount = mount;
+        self.spans.clear();
+        self.clock = SampleClock::new(max_step_ns);
+        self.counts = SampleCounts::new();
     }
 
     /// Fused and rejected samples by reason.

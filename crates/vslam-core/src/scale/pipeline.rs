@@ -40,7 +40,10 @@ use crate::reject::{Reject, SampleCounts};
 use crate::sensors::{FlowSample, ImuSample, OdometryDelta};
 use crate::time::Timestamp;
 
-/// The metric-scale pipeline; `N` is the number of recent poses kept.
+/// The metric-scale pipeline; `N` is the number of recent poses kept, `W`
+/// the frames of the running robust scale's window (default
+/// [`SCALE_WINDOW`]; at least `robust.min_count` of the configuration,
+/// which [`ScalePipeline::new`] checks).
 ///
 /// ```
 /// use vslam_core::Timestamp;
@@ -72,12 +75,12 @@ use crate::time::Timestamp;
 /// assert!((p.body_pose().translation.vector.x - 0.03).abs() < 1e-3);
 /// ```
 #[derive(Clone, Debug)]
-pub struct ScalePipeline<const N: usize = 32> {
+pub struct ScalePipeline<const N: usize = 32, const W: usize = SCALE_WINDOW> {
     config: PipelineConfig,
     wheel: WheelWindow<WHEEL_WINDOW>,
     flow: FlowStepWindow<FLOW_WINDOW>,
     imu: ImuWindow<IMU_WINDOW>,
-    robust: RobustScale<SCALE_WINDOW>,
+    robust: RobustScale<W>,
     memory: PipelineMemory,
     trajectory: Trajectory<FrameDecision, N>,
     camera_counts: SampleCounts,
@@ -92,9 +95,10 @@ pub struct ScalePipeline<const N: usize = 32> {
 /// event, not dozens.
 pub const EPISODE_GAP_NS: u64 = 1_000_000_000;
 
-impl<const N: usize> ScalePipeline<N> {
+impl<const N: usize, const W: usize> ScalePipeline<N, W> {
     /// A pipeline at the configured initial pose, after [`PipelineConfig::validate`].
     pub fn new(config: PipelineConfig) -> Result<Self, PipelineConfigError> {
+        Self::check_window(&config)?;
         config.validate()?;
         Ok(ScalePipeline {
             wheel: WheelWindow::new(config.wheel),
@@ -109,6 +113,59 @@ impl<const N: usize> ScalePipeline<N> {
             last_event: [[None; AdverseKind::COUNT]; SensorKind::COUNT],
             config,
         })
+    }
+
+    /// A pipeline with the default configuration ([`PipelineConfig::DEFAULT`])
+    /// at the identity pose: a `const` value, so that a pipeline can live in
+    /// a `static` and be configured there ([`ScalePipeline::reset`]) without
+    /// a pipeline-sized value passing through the stack.
+    pub const fn unconfigured() -> Self {
+        let config = PipelineConfig::DEFAULT;
+        ScalePipeline {
+            wheel: WheelWindow::new(config.wheel),
+            flow: FlowStepWindow::new(config.flow),
+            imu: ImuWindow::new(config.imu, config.imu_max_step_ns),
+            robust: RobustScale::new(config.robust),
+            memory: AdverseMemory::empty(config.adverse),
+            trajectory: Trajectory::at_origin(),
+            camera_counts: SampleCounts::new(),
+            last_camera: None,
+            wheel_grip: 1.0,
+            last_event: [[None; AdverseKind::COUNT]; SensorKind::COUNT],
+            config,
+        }
+    }
+
+    /// Starts over in place with `config`, as [`ScalePipeline::new`] would
+    /// build it (every window emptied where it is). A refused configuration
+    /// leaves the pipeline as it was.
+    pub fn reset(&mut self, config: PipelineConfig) -> Result<(), PipelineConfigError> {
+        Self::check_window(&config)?;
+        config.validate()?;
+        self.memory
+            .reset(config.adverse)
+            .map_err(PipelineConfigError::Adverse)?;
+        self.wheel.reset(config.wheel);
+        self.flow.reset(config.flow);
+        self.imu.reset(config.imu, config.imu_max_step_ns);
+        self.robust.reset(config.robust);
+        self.trajectory
+            .reset(config.initial_body_pose, config.camera);
+        self.camera_counts = SampleCounts::new();
+        self.last_camera = None;
+        self.wheel_grip = 1.0;
+        self.last_event = [[None; AdverseKind::COUNT]; SensorKind::COUNT];
+        self.config = config;
+        Ok(())
+    }
+
+    /// The running scale needs `robust.min_count` values: a window of `W`
+    /// must hold them.
+    fn check_window(config: &PipelineConfig) -> Result<(), PipelineConfigError> {
+        if usize::from(config.robust.min_count) > W {
+            return Err(PipelineConfigError::OutOfRange("robust.min_count"));
+        }
+        Ok(())
     }
 
     /// The configuration.

@@ -43,12 +43,17 @@ pub struct RobustParams {
 
 impl Default for RobustParams {
     fn default() -> Self {
-        RobustParams {
-            min_count: 5,
-            gate_sigmas: 4.0,
-            rel_floor: 0.02,
-        }
+        Self::DEFAULT
     }
+}
+
+impl RobustParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = RobustParams {
+        min_count: 5,
+        gate_sigmas: 4.0,
+        rel_floor: 0.02,
+    };
 }
 
 /// What one new value did.
@@ -71,7 +76,7 @@ pub struct RobustScale<const N: usize> {
 
 impl<const N: usize> RobustScale<N> {
     /// An empty window.
-    pub fn new(params: RobustParams) -> Self {
+    pub const fn new(params: RobustParams) -> Self {
         RobustScale {
             params,
             window: Deque::new(),
@@ -85,6 +90,12 @@ impl<const N: usize> RobustScale<N> {
 
     /// Forgets every value.
     pub fn clear(&mut self) {
+        self.window.clear();
+    }
+
+    /// Forgets every value and takes `params`, as [`RobustScale::new`].
+    pub fn reset(&mut self, params: RobustParams) {
+        self.params = params;
         self.window.clear();
     }
 

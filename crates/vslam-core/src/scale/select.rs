@@ -109,14 +109,19 @@ pub struct SelectParams {
 
 impl Default for SelectParams {
     fn default() -> Self {
-        SelectParams {
-            min_baseline: 0.004,
-            camera_rel_sigma: 0.02,
-            min_source_confidence: 0.05,
-            min_path: 0.001,
-            agreement_sigmas: 3.0,
-        }
+        Self::DEFAULT
     }
+}
+
+impl SelectParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = SelectParams {
+        min_baseline: 0.004,
+        camera_rel_sigma: 0.02,
+        min_source_confidence: 0.05,
+        min_path: 0.001,
+        agreement_sigmas: 3.0,
+    };
 }
 
 /// What the selection sees for one frame.

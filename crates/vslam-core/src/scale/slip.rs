@@ -85,17 +85,22 @@ pub struct SlipParams {
 
 impl Default for SlipParams {
     fn default() -> Self {
-        SlipParams {
-            threshold: 0.15,
-            min_path: 0.003,
-            min_flow_confidence: 0.3,
-            yaw_rate_tolerance: 0.3,
-            accel_tolerance: 1.5,
-            spin_ratio: 0.2,
-            min_baseline: 0.002,
-            camera_tolerance: 0.3,
-        }
+        Self::DEFAULT
     }
+}
+
+impl SlipParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = SlipParams {
+        threshold: 0.15,
+        min_path: 0.003,
+        min_flow_confidence: 0.3,
+        yaw_rate_tolerance: 0.3,
+        accel_tolerance: 1.5,
+        spin_ratio: 0.2,
+        min_baseline: 0.002,
+        camera_tolerance: 0.3,
+    };
 }
 
 /// The indicator that gave the slip amount.

@@ -121,13 +121,18 @@ pub struct WheelParams {
 
 impl Default for WheelParams {
     fn default() -> Self {
-        WheelParams {
-            k: 1.0,
-            rel_sigma: 0.02,
-            floor_sigma: 0.0005,
-            max_speed: 3.0,
-        }
+        Self::DEFAULT
     }
+}
+
+impl WheelParams {
+    /// The defaults ([`Default::default`]) as a constant, for `const` construction.
+    pub const DEFAULT: Self = WheelParams {
+        k: 1.0,
+        rel_sigma: 0.02,
+        floor_sigma: 0.0005,
+        max_speed: 3.0,
+    };
 }
 
 /// The wheel odometry over one interval, before confidences.
@@ -165,7 +170,7 @@ pub struct WheelWindow<const N: usize> {
 
 impl<const N: usize> WheelWindow<N> {
     /// An empty window.
-    pub fn new(params: WheelParams) -> Self {
+    pub const fn new(params: WheelParams) -> Self {
         WheelWindow {
             params,
             deltas: Deque::new(),
@@ -173,6 +178,15 @@ impl<const N: usize> WheelWindow<N> {
             last_t1: None,
             counts: SampleCounts::new(),
         }
+    }
+
+    /// Empties the window in place and takes `params`, as [`WheelWindow::new`].
+    pub fn reset(&mut self, params: WheelParams) {
+        self.params = params;
+        self.deltas.clear();
+        self.glitches.clear();
+        self.last_t1 = None;
+        self.counts = SampleCounts::new();
     }
 
     /// The settings.
