@@ -45,7 +45,7 @@ pub struct DisagreementCheck {
 
 impl DisagreementCheck {
     /// No checks yet, with `gates`.
-    pub fn new(gates: Gates) -> Self {
+    pub const fn new(gates: Gates) -> Self {
         DisagreementCheck {
             gates,
             counts: DisagreementCounts::new(),

@@ -54,6 +54,7 @@ use ego_ekf::surface::{MapError, SurfaceModel};
 use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
 use heapless::Deque;
 use vslam_core::adverse::{AdverseError, AdverseKind, SensorKind};
+use vslam_core::disagree::Gates;
 use vslam_core::flow_frames::{FramePairMotion, raw_optics};
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::flow::FlowStep;
@@ -337,7 +338,7 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
             reorder: Reorder::new(0),
             pending: Deque::new(),
             counts: StreamCounts::zero(),
-            disagreement: DisagreementCheck::default(),
+            disagreement: DisagreementCheck::new(Gates::DEFAULT),
             ended: false,
             configured: false,
         }
@@ -366,6 +367,7 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
         self.reorder.reset(config.reorder_window_ns);
         self.pending.clear();
         self.counts = StreamCounts::zero();
+        self.disagreement = DisagreementCheck::new(*self.disagreement.gates());
         self.ended = false;
         self.configured = true;
         Ok(())

@@ -103,17 +103,22 @@ pub struct Gates {
     pub dof6: f32,
 }
 
-impl Default for Gates {
+impl Gates {
     /// The 99.9 % quantiles (an agreeing sensor disagrees once in a
     /// thousand intervals).
+    pub const DEFAULT: Gates = Gates {
+        probability: 0.999,
+        dof1: 10.828,
+        dof2: 13.816,
+        dof3: 16.266,
+        dof6: 22.458,
+    };
+}
+
+impl Default for Gates {
+    /// [`Gates::DEFAULT`].
     fn default() -> Self {
-        Gates {
-            probability: 0.999,
-            dof1: 10.828,
-            dof2: 13.816,
-            dof3: 16.266,
-            dof6: 22.458,
-        }
+        Gates::DEFAULT
     }
 }
 
