@@ -71,13 +71,13 @@ impl DisagreementCheck {
     /// Checks the pair `motion` (whose scale decision is `decision`)
     /// against `ekf` before the pair is fused, counts the verdicts and
     /// records each disagreement in `scale`'s memory.
-    pub fn on_frame<const N: usize>(
+    pub fn on_frame<const N: usize, const W: usize>(
         &mut self,
         ekf: &EgoEkf,
         motion: &CameraMotion,
         decision: &FrameDecision,
         camera_scale: Option<(f32, f32)>,
-        scale: &mut ScalePipeline<N>,
+        scale: &mut ScalePipeline<N, W>,
     ) -> FrameVerdicts {
         let verdicts = frame_verdicts(
             ekf,
