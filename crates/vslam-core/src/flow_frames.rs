@@ -22,7 +22,9 @@
 //!    absolute difference over shifts up to [`MAX_SHIFT`] px, ties towards
 //!    the previous pair's motion; [`global_shift`]), as the sensor chip
 //!    itself correlates frames: it seeds every point, so motions of 14 px a
-//!    frame (0.9 m/s at 100 frames a second) converge;
+//!    frame (0.9 m/s at 100 frames a second) converge; a match no more
+//!    distinct than [`MIN_DISTINCTNESS`] ([`ShiftMatch`]: glazed tile,
+//!    frames of noise) makes the pair `textureless`, with no features;
 //! 3. Shi-Tomasi corners 3 px apart at least 5 px inside the frame;
 //! 4. Lucas-Kanade with a 7x7 window over two pyramid levels (35 and 18 px;
 //!    a third level of 9 px averages the floor's fine texture away and
@@ -51,6 +53,11 @@ pub const FOCAL_PX: f32 = 45.588;
 
 /// Angular pixel pitch at the frame's centre, radians per pixel (`1 / FOCAL_PX`).
 pub const RADIANS_PER_PIXEL: f32 = 1.0 / FOCAL_PX;
+
+/// Least distinctness of the whole-frame block match ([`ShiftMatch`]) for
+/// a pair to be tracked (the default of
+/// [`FrameFlowConfig::min_distinctness`]).
+pub const MIN_DISTINCTNESS: f32 = 0.28;
 
 /// Fewest tracked features a frame pair needs to give a displacement.
 pub const MIN_FEATURES: u8 = 3;
@@ -83,6 +90,9 @@ pub struct FrameFlowConfig {
     pub corners: CornerConfig,
     /// The tracker.
     pub lk: LkConfig,
+    /// Least block-match distinctness ([`ShiftMatch`]) a pair needs to be
+    /// tracked; below it the pair is textureless.
+    pub min_distinctness: f32,
 }
 
 impl Default for FrameFlowConfig {
@@ -108,6 +118,7 @@ impl Default for FrameFlowConfig {
                 affine_refinement: false,
                 fb_threshold: None,
             },
+            min_distinctness: MIN_DISTINCTNESS,
         }
     }
 }
@@ -146,6 +157,11 @@ pub struct FramePairMotion {
     tracked: usize,
     /// Corners found in the previous frame.
     pub corners: usize,
+    /// The whole-frame block match's distinctness ([`ShiftMatch`]).
+    pub distinctness: f32,
+    /// Refused for want of texture: the block match was less distinct than
+    /// [`FrameFlowConfig::min_distinctness`]; the pair has no features.
+    pub textureless: bool,
 }
 
 impl FramePairMotion {
@@ -161,6 +177,7 @@ impl FramePairMotion {
 pub struct FrameFlow {
     tracker: Tracker,
     corners: CornerConfig,
+    min_distinctness: f32,
     prev: [u8; FLOW_FRAME_LEN],
     prev_t: Option<Timestamp>,
     /// Median image velocity of the last tracked pair, pixels per second.
@@ -183,6 +200,7 @@ impl FrameFlow {
         Ok(FrameFlow {
             tracker: Tracker::new(lk).map_err(FrameFlowError::Config)?,
             corners: config.corners,
+            min_distinctness: config.min_distinctness,
             prev: [0; FLOW_FRAME_LEN],
             prev_t: None,
             velocity: Vec2::zeros(),
@@ -232,6 +250,8 @@ impl FrameFlow {
             features: [FeatureMotion::default(); MAX_CORNERS],
             tracked: 0,
             corners: 0,
+            distinctness: 0.0,
+            textureless: false,
         };
         let (Ok(prev), Ok(next)) = (
             ImageView::packed(&self.prev, FLOW_FRAME_SIDE, FLOW_FRAME_SIDE),
@@ -253,7 +273,16 @@ impl FrameFlow {
         };
         // The whole frame's shift by block matching seeds every point; the
         // previous pair's velocity breaks near-ties.
-        let shift = global_shift(&prev, &next, self.velocity * dt);
+        let matched = global_match(&prev, &next, self.velocity * dt);
+        out.distinctness = matched.distinctness;
+        if !(matched.distinctness >= self.min_distinctness) {
+            // No texture the match can hold on to: no features, and the
+            // pair says so.
+            out.textureless = true;
+            self.velocity = Vec2::zeros();
+            return out;
+        }
+        let shift = matched.shift;
         let mut points = [Vec2::zeros(); MAX_CORNERS];
         let mut guesses = [Vec2::zeros(); MAX_CORNERS];
         for ((c, p), g) in corners
@@ -312,13 +341,36 @@ const PRIOR_WEIGHT: f32 = 0.003;
 /// ties keep the shift nearest `prior`. Images of different sizes give
 /// `prior`.
 pub fn global_shift(a: &ImageView<'_>, b: &ImageView<'_>, prior: Vec2) -> Vec2 {
+    global_match(a, b, prior).shift
+}
+
+/// The block match of [`global_shift`]: the shift and how distinct it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShiftMatch {
+    /// The shift, pixels.
+    pub shift: Vec2,
+    /// `1 - best / mean` of the mean absolute differences over every shift
+    /// tried: near 0 when every shift matches about as well (a floor
+    /// without texture the sensor resolves, or blurred away), towards 1
+    /// for one sharp match.
+    pub distinctness: f32,
+}
+
+/// [`global_shift`] with the match's distinctness ([`ShiftMatch`]); images
+/// of different sizes give `prior` with distinctness 0.
+pub fn global_match(a: &ImageView<'_>, b: &ImageView<'_>, prior: Vec2) -> ShiftMatch {
+    let none = ShiftMatch {
+        shift: prior,
+        distinctness: 0.0,
+    };
     let (w, h) = (a.width(), a.height());
     if (w, h) != (b.width(), b.height()) || w == 0 || h == 0 {
-        return prior;
+        return none;
     }
     let (wi, hi) = (w as i32, h as i32);
     let min_overlap = (w * h / 3) as i32;
-    let mut best = (f32::INFINITY, f32::INFINITY, prior);
+    let mut best = (f32::INFINITY, f32::INFINITY, prior, 0f32);
+    let (mut mad_sum, mut tried) = (0f32, 0u32);
     for dy in -MAX_SHIFT..=MAX_SHIFT {
         for dx in -MAX_SHIFT..=MAX_SHIFT {
             let (ow, oh) = (wi - dx.abs(), hi - dy.abs());
@@ -342,13 +394,23 @@ pub fn global_shift(a: &ImageView<'_>, b: &ImageView<'_>, prior: Vec2) -> Vec2 {
             }
             let d = Vec2::new(dx as f32, dy as f32);
             let from_prior = (d - prior).norm_squared();
-            let cost = sad as f32 / (ow * oh) as f32 + PRIOR_WEIGHT * from_prior;
+            let mad = sad as f32 / (ow * oh) as f32;
+            mad_sum += mad;
+            tried += 1;
+            let cost = mad + PRIOR_WEIGHT * from_prior;
             if cost < best.0 || (cost == best.0 && from_prior < best.1) {
-                best = (cost, from_prior, d);
+                best = (cost, from_prior, d, mad);
             }
         }
     }
-    best.2
+    let mean = mad_sum / tried.max(1) as f32;
+    if tried == 0 || !(mean > 0.0) {
+        return none;
+    }
+    ShiftMatch {
+        shift: best.2,
+        distinctness: 1.0 - best.3 / mean,
+    }
 }
 
 /// Half the side of the box whose mean [`high_pass`] removes (11 x 11).
@@ -429,6 +491,7 @@ mod tests {
             m.features().len(),
             m.corners
         );
+        assert!(!m.textureless && m.distinctness > MIN_DISTINCTNESS, "{m:?}");
         let e = combine(m.features()).unwrap();
         assert!((e.median_px - Vec2::new(2.5, -1.25)).norm() < 0.1, "{e:?}");
         // The next pair starts from the previous motion: 6 px more.
@@ -457,6 +520,31 @@ mod tests {
     }
 
     #[test]
+    fn frames_of_noise_alone_are_textureless_and_give_no_features() {
+        // Independent noise in each frame (a floor the sensor does not
+        // resolve): every shift matches about as well.
+        let mut state = 12_345u32;
+        let mut noise = || {
+            let mut f = [0u8; FLOW_FRAME_LEN];
+            for p in f.iter_mut() {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                *p = 100 + (state >> 27) as u8;
+            }
+            f
+        };
+        let mut ff = FrameFlow::new(FrameFlowConfig::default()).unwrap();
+        ff.push(Timestamp(0), &noise()).unwrap();
+        for k in 1..5u64 {
+            let m = ff
+                .push(Timestamp(k * 10_000_000), &noise())
+                .unwrap()
+                .unwrap();
+            assert!(m.textureless && m.distinctness < MIN_DISTINCTNESS, "{m:?}");
+            assert!(m.features().is_empty());
+        }
+    }
+
+    #[test]
     fn blank_frames_and_time_going_back_give_no_features_or_errors() {
         let mut ff = FrameFlow::new(FrameFlowConfig::default()).unwrap();
         ff.push(Timestamp(5), &[40; FLOW_FRAME_LEN]).unwrap();
@@ -465,6 +553,7 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!((m.corners, m.features().len()), (0, 0));
+        assert!(m.textureless);
         assert_eq!(
             ff.push(Timestamp(6), &pattern(0.0, 0.0)),
             Err(FrameFlowError::OutOfOrder)

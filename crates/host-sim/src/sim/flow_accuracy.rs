@@ -44,8 +44,13 @@ pub struct ToAccuracy {
     pub frames_total_pct: f64,
     /// The same from counts, percent.
     pub counts_total_pct: f64,
-    /// Frame pairs the robust combination refused (too few features), percent.
+    /// Frame pairs refused (textureless, or too few features for the
+    /// robust combination), percent; the frame figures above are over the
+    /// intervals without a refused pair (NaN when there are none).
     pub frames_refused_pct: f64,
+    /// Median distinctness of the frame pairs' block match
+    /// (`vslam_core::flow_frames::ShiftMatch`).
+    pub frames_distinctness: f64,
 }
 
 /// A world of one room of `surface`.
@@ -105,6 +110,8 @@ pub fn measure(
         .map_err(|e| bad(&format!("raw-frame tracker: {e}")))?;
     let intervals = (truth.len() as u64 - 1) / INTERVAL_STEPS;
     let mut frames = vec![0f64; intervals as usize];
+    let mut refused_in = vec![false; intervals as usize];
+    let mut distinctness = Vec::new();
     let (mut pairs, mut refused) = (0usize, 0usize);
     for s in truth.iter().step_by(REPORT_STEPS) {
         let frame = grabber.grab(&renderer.render(&world, s, &mut rng))?;
@@ -112,14 +119,20 @@ pub fn measure(
             continue;
         };
         pairs += 1;
+        distinctness.push(f64::from(pair.distinctness));
+        let k = ((pair.t0.0 / TRUTH_STEP_NS) / INTERVAL_STEPS) as usize;
         match raw_flow_step(pair.t0, pair.t1, pair.features(), &optics, 0.0) {
-            Ok(step) => {
-                let k = ((pair.t0.0 / TRUTH_STEP_NS) / INTERVAL_STEPS) as usize;
+            Ok(step) if !pair.textureless => {
                 if let Some(slot) = frames.get_mut(k) {
                     *slot += f64::from(step.d_body.x);
                 }
             }
-            Err(_) => refused += 1,
+            _ => {
+                refused += 1;
+                if let Some(r) = refused_in.get_mut(k) {
+                    *r = true;
+                }
+            }
         }
     }
     // Counts.
@@ -151,14 +164,28 @@ pub fn measure(
         let t = truth_step * v.len() as f64;
         (v.iter().sum::<f64>() - t) / t * 100.0
     };
+    let frames: Vec<f64> = frames
+        .iter()
+        .zip(&refused_in)
+        .filter(|(_, r)| !**r)
+        .map(|(d, _)| *d)
+        .collect();
+    let none_if_empty = |v: &[f64], f: &dyn Fn(&[f64]) -> f64| {
+        if v.is_empty() { f64::NAN } else { f(v) }
+    };
+    distinctness.sort_by(f64::total_cmp);
     Ok(ToAccuracy {
         surface,
         speed,
         intervals: intervals as usize,
-        frames_rms_pct: rms(&frames),
+        frames_rms_pct: none_if_empty(&frames, &rms),
         counts_rms_pct: rms(&counts),
-        frames_total_pct: total(&frames),
+        frames_total_pct: none_if_empty(&frames, &total),
         counts_total_pct: total(&counts),
         frames_refused_pct: refused as f64 / pairs.max(1) as f64 * 100.0,
+        frames_distinctness: distinctness
+            .get(distinctness.len() / 2)
+            .copied()
+            .unwrap_or(f64::NAN),
     })
 }
