@@ -275,7 +275,7 @@ impl FrameFlow {
         // previous pair's velocity breaks near-ties.
         let matched = global_match(&prev, &next, self.velocity * dt);
         out.distinctness = matched.distinctness;
-        if !(matched.distinctness >= self.min_distinctness) {
+        if matched.distinctness.is_nan() || matched.distinctness < self.min_distinctness {
             // No texture the match can hold on to: no features, and the
             // pair says so.
             out.textureless = true;
@@ -404,7 +404,7 @@ pub fn global_match(a: &ImageView<'_>, b: &ImageView<'_>, prior: Vec2) -> ShiftM
         }
     }
     let mean = mad_sum / tried.max(1) as f32;
-    if tried == 0 || !(mean > 0.0) {
+    if tried == 0 || mean.is_nan() || mean <= 0.0 {
         return none;
     }
     ShiftMatch {
