@@ -153,3 +153,40 @@ fn the_transition_carries_the_heading_direction_along() {
     let rest = d.fixed_rows::<{ DIM - V }>(V);
     assert!(rest.amax() < 1e-5, "{:.2e}", rest.transpose());
 }
+
+#[test]
+fn the_first_estimate_transition_carries_the_heading_direction_from_the_prediction() {
+    // The prediction `first`, then an update's correction to it: the
+    // transition from the corrected state at the first estimates must map
+    // the direction at the prediction to the one at the next prediction.
+    let first = state();
+    let mut x = first;
+    x.v_wb += Vec3::new(0.004, -0.003, 0.001);
+    x.q_wb = Quat::from_scaled_axis(Vec3::new(0.002, -0.001, 0.003)) * x.q_wb;
+    let dt = 0.004;
+    let gyro = x.corrected_gyro(&Vec3::new(0.05, -0.02, 0.6));
+    let accel = Vec3::new(0.4, 1.1, 9.7) - x.accel_bias;
+    let n0 = yaw_direction(&first);
+    let r_wb = x.q_wb.to_rotation_matrix().into_inner();
+    let r_first = first.q_wb.to_rotation_matrix().into_inner();
+    let f =
+        Transition::at_first_estimates(&r_wb, &accel, &gyro, dt, &(x.v_wb - first.v_wb), &r_first)
+            .dense();
+    propagate_nominal(&mut x, &accel, &gyro, dt);
+    let d = f * n0 - yaw_direction(&x);
+    println!(
+        "FEJ: F N_k - N_k+1: p {:.2e}, v {:.2e}, theta {:.2e}",
+        d.fixed_rows::<3>(P).transpose(),
+        d.fixed_rows::<3>(V).transpose(),
+        d.fixed_rows::<3>(TH).transpose(),
+    );
+    assert!(
+        d.fixed_rows::<6>(V).amax() < 1e-5,
+        "{:.2e}",
+        d.fixed_rows::<6>(V).transpose()
+    );
+    // The transition at the corrected state does not.
+    let plain = Transition::new(&r_wb, &accel, &gyro, dt).dense() * n0 - yaw_direction(&x);
+    println!("plain: v {:.2e}", plain.fixed_rows::<3>(V).transpose());
+    assert!(plain.fixed_rows::<6>(V).amax() > 1e-3);
+}
