@@ -143,12 +143,6 @@ pub struct EgoEkf {
     /// The latest accepted IMU sample's rates (gyro, specific force), as
     /// measured: the zero-order hold to a camera frame between samples.
     last_imu: Option<(Vec3, Vec3)>,
-    /// The latest prediction's velocity and attitude, before the updates
-    /// that followed it: the first estimates the next step's transition is
-    /// evaluated at ([`Transition::at_first_estimates`]). `None` after a
-    /// start, a gap's bridge or a velocity reset (none of them a Kalman
-    /// update: the next step starts afresh from the state).
-    first: Option<(Vec3, Quat)>,
 }
 
 /// The pose clone's schedule: one clone, shared by the zero-velocity
@@ -324,7 +318,6 @@ impl EgoEkf {
             clone: CloneUse::Still,
             camera: CameraFusion::new(),
             last_imu: None,
-            first: None,
             config,
         }
     }
@@ -372,7 +365,6 @@ impl EgoEkf {
         clone_pose(&mut self.x, &mut self.p);
         self.clone = CloneUse::Still;
         self.last_imu = None;
-        self.first = None;
         self.refutation.clear();
         self.distrust.clear();
         self.imu_clock.reset();
@@ -459,7 +451,6 @@ impl EgoEkf {
         let f = self.transition(&r_wb, &accel, &gyro, dt);
         let q = process_noise(&self.config.imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
-        self.first = Some((self.x.v_wb, self.x.q_wb));
         self.propagate_covariance(&f, &q);
 
         if !still && self.clone == CloneUse::Still {
@@ -521,21 +512,8 @@ impl EgoEkf {
     /// The error-state transition of one step from the attitude `r_wb` and
     /// the corrected samples; the attitude coupled to the gyro's scale
     /// factor when it is estimated ([`crate::config::ImuConfig::estimate_gyro_scale`]).
-    ///
-    /// When updates corrected the velocity or attitude since the last
-    /// prediction, the velocity and attitude blocks are taken at that
-    /// prediction (the first estimates, [`Transition::at_first_estimates`]):
-    /// otherwise each correction would move the unobservable heading
-    /// direction the updates' Jacobians were taken at, and the filter would
-    /// learn its absolute yaw standing still (`tests/yaw_unobservable.rs`).
     fn transition(&self, r_wb: &Matrix3<f32>, accel: &Vec3, gyro: &Vec3, dt: f32) -> Transition {
-        let f = match self.first {
-            Some((v, q)) if v != self.x.v_wb || q != self.x.q_wb => {
-                let r_first = q.to_rotation_matrix().into_inner();
-                Transition::at_first_estimates(r_wb, accel, gyro, dt, &(self.x.v_wb - v), &r_first)
-            }
-            _ => Transition::new(r_wb, accel, gyro, dt),
-        };
+        let f = Transition::new(r_wb, accel, gyro, dt);
         if self.config.imu.estimate_gyro_scale {
             f.with_gyro_scale(&self.x.gyro_scale_jacobian(gyro))
         } else {
@@ -568,7 +546,6 @@ impl EgoEkf {
     /// wheels' dead reckoning if they covered it, else at constant velocity.
     fn bridge(&mut self, gap_ns: u64, start: Option<Timestamp>, end: Timestamp) {
         let gap_s = vslam_core::time::nanos_to_seconds(gap_ns);
-        self.first = None;
         // The bridge moves the pose: the clone due from the last moving step
         // is that step's pose, taken now (as if cloned at that step).
         self.clone_if_due(true);
@@ -706,7 +683,6 @@ impl EgoEkf {
         }
         if let Verdict::Reset(_) = verdict {
             self.wheel.end_run();
-            self.first = None;
         }
         verdict
     }
@@ -729,9 +705,6 @@ impl EgoEkf {
         let out = self
             .flow
             .fuse(&mut self.x, &mut self.p, &gyro, sample, &config, now);
-        if out.as_ref().is_ok_and(|f| f.reset) {
-            self.first = None;
-        }
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }

@@ -16,10 +16,7 @@
 //! few 3-row operations on `P` followed by the same operations on columns:
 //! the IMU block and the IMU-to-rest cross terms change, the rest-to-rest
 //! block only gains its small `Q`. [`propagate_covariance_dense`] is the
-//! dense reference the tests compare against. After updates corrected
-//! the state, the filter takes `F_vtheta` and `F_thetatheta` at the first
-//! estimates instead ([`Transition::at_first_estimates`]), the same blocks
-//! with other values, so the same covariance step.
+//! dense reference the tests compare against.
 
 use nalgebra::{Matrix3, Rotation3};
 
@@ -54,41 +51,6 @@ impl Transition {
             f_vth: -(r_wb * skew(accel)) * dt,
             f_vba: -r_wb * dt,
             f_thth: exp_so3(&(gyro * dt)).transpose(),
-            f_thk: Vec3::zeros(),
-        }
-    }
-
-    /// The transition for one step that starts from a corrected estimate,
-    /// with the velocity and attitude Jacobians at the first estimates
-    /// (Huang, Mourikis and Roumeliotis, "Observability-based rules for
-    /// designing consistent EKF SLAM estimators", IJRR 2010; Li and
-    /// Mourikis, "High-precision, consistent EKF-based visual-inertial
-    /// odometry", IJRR 2013, sec. IV-B): `dv` is the velocity's correction
-    /// since the last prediction (`v_hat - v_first`) and `r_first` the
-    /// predicted attitude before the correction. Then
-    /// `F_vtheta = -[dv + R a dt]x R_first` and
-    /// `F_thetatheta = Exp(w dt)^T R^T R_first`, so `F` carries the heading
-    /// direction at the first estimates (`dtheta = R_first^T e_z`,
-    /// `dv = e_z x v_first`) into the one at the new prediction
-    /// (`R_next^T e_z`, `e_z x v_next`): the updates between them, whose
-    /// Jacobians were taken at the first estimates, gain no information on
-    /// the absolute heading (see `tests/yaw_nullspace.rs`). With no
-    /// correction (`dv = 0`, `r_first = r_wb`) this is [`Transition::new`]
-    /// up to rounding.
-    pub fn at_first_estimates(
-        r_wb: &Matrix3<f32>,
-        accel: &Vec3,
-        gyro: &Vec3,
-        dt: f32,
-        dv: &Vec3,
-        r_first: &Matrix3<f32>,
-    ) -> Self {
-        let dv_step = dv + r_wb * accel * dt;
-        Transition {
-            dt,
-            f_vth: -(skew(&dv_step) * r_first),
-            f_vba: -r_wb * dt,
-            f_thth: exp_so3(&(gyro * dt)).transpose() * (r_wb.transpose() * r_first),
             f_thk: Vec3::zeros(),
         }
     }

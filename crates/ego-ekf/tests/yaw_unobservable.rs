@@ -1,35 +1,23 @@
 //! Absolute yaw is unobservable to the IMU, the wheels and the zero-velocity
 //! update, so no update may shrink its variance: a robot standing still
-//! must not learn its heading.
-//!
-//! The wheel rows see no heading at the estimate they are taken at, and the
-//! transition carries the heading direction along (`tests/yaw_nullspace.rs`);
-//! what gave the filter yaw information was the chain of the two: each
-//! update corrects the velocity, which moves the heading direction's
-//! velocity part `e_z x v_hat`, and the next step's transition, taken at the
-//! corrected velocity, started from the moved direction, not from the one
-//! the update's Jacobian was blind to. The transition now takes its
-//! velocity and attitude blocks at the first estimates (the prediction
-//! before the updates: `Transition::at_first_estimates`; Huang et al.
-//! 2010, Li and Mourikis 2013). Measured with this test (cargo test -p
-//! ego-ekf --release --test yaw_unobservable -- --include-ignored
-//! --nocapture): with a yaw prior of 0.2 rad the world-yaw standard
-//! deviation after 0.96 s standing still is 0.154-0.186 rad on seeds
-//! 1000-1005, against 0.075-0.146 rad with the transition at the corrected
-//! estimates.
-//!
-//! Still not 0.2 (the first test is ignored for that): the transition does
-//! not yet take its position block at the first estimates (an update's
-//! position correction `dp` leaves `e_z x dp` unmapped, which needs an
-//! `F_ptheta` block the covariance kernel does not have), the gravity
-//! state's corrections move `e_z x g_hat` the same way, the zero-velocity
-//! update's velocity rows see `e_z x v_hat` (not zero unless the estimate
-//! stands still: `tests/yaw_nullspace.rs`), and an update after another in
-//! the same step is taken at the corrected state, not the prediction. (The
-//! invariant is the information along the whole heading direction, which
-//! also moves position and velocity, `e_z x p_hat` and `e_z x v_hat`; the
-//! yaw's own variance can fall somewhat below its prior while that stays
-//! constant, so 0.199 is a strict test.)
+//! must not learn its heading. Ignored: it fails today (a known bug; see
+//! `tests/fused_consistency.rs`'s module doc). With a yaw prior of 0.2 rad
+//! the filter's world-yaw standard deviation after 0.96 s standing still is
+//! 0.075-0.146 rad on seeds 1000-1005 (cargo test -p ego-ekf --release
+//! --test yaw_unobservable -- --ignored --nocapture); with the IMU mounted
+//! level (rotation prior 1e-6 rad) or the tilt known to 1e-5 rad it is
+//! 0.076-0.185 rad after 1 s (measured with this test so changed). The
+//! wheel updates do it: without them (zero-velocity updates only) the yaw
+//! stays at 0.200 rad; without the zero-velocity updates it still falls
+//! (0.081-0.150 rad). The first wheel update at rest removes a quarter of
+//! the yaw variance. The propagation's velocity-yaw covariance equals its
+//! first-order prediction `-R [a]x e_z dt sigma^2` step by step; the
+//! wheel rows' attitude column `R_rb [v_b]x` is evaluated at the estimated
+//! velocity, which is not zero while the true one is (the start's
+//! velocity error, the integrated accelerometer noise), so the rows see
+//! the yaw where the truth's would not: the linearisation-point
+//! inconsistency that first-estimate or observability-constrained
+//! Jacobians remove (Huang et al. 2010; Hesch et al. 2014).
 
 mod support;
 
@@ -37,9 +25,9 @@ use ego_ekf::state::Vec3;
 use ego_ekf::{EgoEkf, FilterConfig, GripParams, InitConfig};
 use support::monte_carlo::{draw, yaw_error};
 
-/// The world-yaw standard deviations after 0.96 s standing still, seeds
-/// 1000-1005, with a yaw prior of 0.2 rad.
-fn standing_still_yaw_stds() -> Vec<f64> {
+#[test]
+#[ignore = "known bug: the filter learns absolute yaw standing still"]
+fn standing_still_does_not_reveal_the_heading() {
     let c = FilterConfig {
         grip: GripParams::new(0.95, 0.005, 0.001, 10.83, 2.0).unwrap(),
         floor: None,
@@ -66,23 +54,6 @@ fn standing_still_yaw_stds() -> Vec<f64> {
         let (_, var) = yaw_error(&Vec3::zeros(), &f.state().q_wb, f.covariance());
         stds.push(var.sqrt());
     }
-    stds
-}
-
-#[test]
-#[ignore = "known bug: the filter still learns some absolute yaw standing still (module doc)"]
-fn standing_still_does_not_reveal_the_heading() {
-    let stds = standing_still_yaw_stds();
     println!("world-yaw std after 0.96 s standing still (prior 0.2 rad): {stds:.3?}");
     assert!(stds.iter().all(|s| *s > 0.199), "{stds:.3?}");
-}
-
-/// The transition at the first estimates keeps most of the heading's
-/// prior: above 0.15 rad of 0.2 on every seed (0.075-0.146 with the
-/// transition at the corrected estimates).
-#[test]
-fn standing_still_keeps_most_of_the_heading_prior() {
-    let stds = standing_still_yaw_stds();
-    println!("world-yaw std after 0.96 s standing still (prior 0.2 rad): {stds:.3?}");
-    assert!(stds.iter().all(|s| *s > 0.15), "{stds:.3?}");
 }

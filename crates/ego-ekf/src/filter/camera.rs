@@ -108,7 +108,6 @@ impl EgoEkf {
         let f = self.transition(&r_wb, &accel, &gyro, dt);
         let q = process_noise(&self.config.imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
-        self.first = Some((self.x.v_wb, self.x.q_wb));
         self.propagate_covariance(&f, &q);
         true
     }
