@@ -43,6 +43,21 @@ pub struct DriverReads<S> {
     pub spoiled: Vec<SpoiledSample>,
 }
 
+/// The real flow-sensor driver on a simulated chip.
+type SimFlowSensor = FlowSensor<Shared<FlowChipSim>, NoDelay>;
+
+/// A simulated PAA5100JE behind the real driver, powered up: the chip's
+/// handle (to move the floor under it) and the driver.
+fn powered_flow_sensor() -> Result<(Shared<FlowChipSim>, SimFlowSensor), CliError> {
+    let chip = Shared::new(FlowChipSim::new());
+    let handle = chip.handle();
+    let mut sensor = FlowSensor::new(chip, NoDelay, Variant::Paa5100je);
+    sensor
+        .init()
+        .map_err(|e| driver_error("flow sensor power-up", e))?;
+    Ok((handle, sensor))
+}
+
 /// [`flow_through_driver`] with the flow chip faults of `plan` injected into
 /// the simulator. The read loop does what firmware does: a failed read is
 /// counted with its reason; a burst of all zeros (a running chip never has
@@ -52,12 +67,7 @@ pub fn flow_through_driver_with(
     reports: &[FlowSample],
     plan: &FaultPlan,
 ) -> Result<DriverReads<FlowSample>, CliError> {
-    let chip = Shared::new(FlowChipSim::new());
-    let handle = chip.handle();
-    let mut sensor = FlowSensor::new(chip, NoDelay, Variant::Paa5100je);
-    sensor
-        .init()
-        .map_err(|e| driver_error("flow sensor power-up", e))?;
+    let (handle, mut sensor) = powered_flow_sensor()?;
     let mut faults = ChipSchedule::new(plan, Stream::Flow);
     let mut out = DriverReads {
         samples: Vec::with_capacity(reports.len()),
@@ -129,18 +139,13 @@ pub fn flow_through_driver_with(
 /// leaves the chip in raw-data mode until the next power-up.
 pub struct FrameGrabber {
     chip: std::rc::Rc<std::cell::RefCell<FlowChipSim>>,
-    sensor: FlowSensor<Shared<FlowChipSim>, NoDelay>,
+    sensor: SimFlowSensor,
 }
 
 impl FrameGrabber {
     /// A powered-up sensor.
     pub fn new() -> Result<Self, CliError> {
-        let chip = Shared::new(FlowChipSim::new());
-        let handle = chip.handle();
-        let mut sensor = FlowSensor::new(chip, NoDelay, Variant::Paa5100je);
-        sensor
-            .init()
-            .map_err(|e| driver_error("flow sensor power-up", e))?;
+        let (handle, sensor) = powered_flow_sensor()?;
         Ok(FrameGrabber {
             chip: handle.0,
             sensor,
