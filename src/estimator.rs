@@ -19,7 +19,10 @@
 //! Camera frames ([`Estimator::process_camera`]): the front end's frame
 //! pair motion goes to the scale pipeline, and with the pair's scale (if
 //! any) to the EKF as a relative-pose measurement, its noise inflated by
-//! the camera's adverse-memory weight; before that, each sensor's motion
+//! the camera's adverse-memory weight; the IMU's, the wheels' and the flow
+//! sensor's memory weights where the pair ends go to the EKF
+//! ([`ego_ekf::SensorWeights`]: process and measurement noise divided by
+//! them until the next pair); before that, each sensor's motion
 //! over the pair is checked against the EKF's ([`crate::disagreement`]),
 //! a disagreement an adverse event of that sensor; the pair's slip and
 //! wheel-outlier verdicts inflate the EKF's wheel noise (by default: refuse
@@ -51,7 +54,7 @@ use crate::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, FrontEndError};
 use crate::reorder::{Event, Pushed, Reorder};
 use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
-use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, WheelInnovation};
+use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, SensorWeights, WheelInnovation};
 use heapless::Deque;
 use vslam_core::adverse::{AdverseError, AdverseKind, SensorKind};
 use vslam_core::disagree::Gates;
@@ -496,6 +499,13 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
         // the pair is fused ([`crate::disagreement`]).
         self.disagreement
             .on_frame(&self.ekf, &motion, &decision, scale, &mut self.scale);
+        // The memory's weights where the robot is now hold in the EKF until
+        // the next frame (weights lie in (0, 1]; a refusal keeps the last).
+        let _ = self.ekf.set_sensor_weights(SensorWeights {
+            imu: decision.imu_weight,
+            wheel: decision.wheel_weight,
+            flow: decision.flow_weight,
+        });
         // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
         // frame pair is counted once here, by the camera path. The camera's
         // memory weight here inflates its noise.

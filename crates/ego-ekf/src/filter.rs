@@ -30,8 +30,10 @@ mod camera;
 mod distrust;
 mod read;
 mod relative;
+mod weights;
 
 pub use relative::RelativeMotion;
+pub use weights::SensorWeights;
 
 /// Variance of the clone's copy of the position, m^2 (see [`covariance::clone_pose`]).
 const CLONE_COPY_VAR_POSITION: f32 = 1.0e-8;
@@ -135,6 +137,8 @@ pub struct EgoEkf {
     refutation: Refutation,
     /// The scale pipeline's standing verdict against the wheels.
     distrust: WheelDistrust,
+    /// The adverse-event memory's weights where the robot is.
+    weights: SensorWeights,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
     /// What the pose clone holds and who reads it (see [`CloneUse`]).
@@ -313,6 +317,7 @@ impl EgoEkf {
             recovery: RecoveryCounts::new(),
             refutation: Refutation::new(),
             distrust: WheelDistrust::new(),
+            weights: SensorWeights::FULL,
             gaps: GapCounts::new(),
             gap_odometry: GapOdometry::new(),
             clone: CloneUse::Still,
@@ -449,7 +454,9 @@ impl EgoEkf {
         self.clone_if_due(still);
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
         let f = self.transition(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu, &self.config.robot, dt);
+        let weighted = self.weighted_imu();
+        let imu = weighted.as_ref().unwrap_or(&self.config.imu);
+        let q = process_noise(imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
 
@@ -609,7 +616,8 @@ impl EgoEkf {
                 witness,
             )
         };
-        let noise_factor = self.distrust.factor_at(rates.t());
+        let noise_factor =
+            self.distrust.factor_at(rates.t()) * weights::std_factor(self.weights.wheel);
         // An infinite factor refuses the forward rows, as the flow's refutation does.
         let refuted = refuted || noise_factor.is_infinite();
         let mut out = self.wheel.fuse(
@@ -702,9 +710,16 @@ impl EgoEkf {
             return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let gyro = self.angular_velocity();
-        let out = self
-            .flow
-            .fuse(&mut self.x, &mut self.p, &gyro, sample, &config, now);
+        let factor = weights::std_factor(self.weights.flow);
+        let out = self.flow.fuse(
+            &mut self.x,
+            &mut self.p,
+            &gyro,
+            sample,
+            &config,
+            now,
+            factor,
+        );
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }

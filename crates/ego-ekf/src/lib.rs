@@ -88,7 +88,9 @@ pub use config::{
     CameraConfig, ConfigError, FilterConfig, FloorConfig, FlowConfig, GapConfig, ImuConfig,
     ImuNoise, InitConfig, RecoveryConfig, RobotPrior, WheelConfig, ZuptConfig,
 };
-pub use filter::{EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep, RelativeMotion};
+pub use filter::{
+    EgoEkf, ExplicitStart, Filter, GapCounts, ImuStep, RelativeMotion, SensorWeights,
+};
 pub use flow::FlowFused;
 pub use grip::{GripError, GripParams};
 pub use recovery::{RecoveryCounts, ResetSource, Verdict};

@@ -106,7 +106,9 @@ impl EgoEkf {
         let accel = accel - self.x.accel_bias;
         let r_wb = self.x.q_wb.to_rotation_matrix().into_inner();
         let f = self.transition(&r_wb, &accel, &gyro, dt);
-        let q = process_noise(&self.config.imu, &self.config.robot, dt);
+        let weighted = self.weighted_imu();
+        let imu = weighted.as_ref().unwrap_or(&self.config.imu);
+        let q = process_noise(imu, &self.config.robot, dt);
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
         true

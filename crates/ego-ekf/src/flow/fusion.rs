@@ -131,7 +131,10 @@ impl FlowFusion {
     }
 
     /// Checks, gates and fuses one report at the filter time `now`; see the
-    /// module docs.
+    /// module docs. The report's standard deviation is multiplied by
+    /// `noise_factor` (the adverse-event memory's weight, see
+    /// [`crate::SensorWeights`]; one: as modelled).
+    #[allow(clippy::too_many_arguments)] // the filter's parts, borrowed apart
     pub fn fuse(
         &mut self,
         x: &mut NominalState,
@@ -140,8 +143,9 @@ impl FlowFusion {
         sample: &FlowSample,
         config: &FlowConfig,
         now: Timestamp,
+        noise_factor: f32,
     ) -> Result<FlowFused, Reject> {
-        let outcome = match self.check(x, gyro, sample, config, now) {
+        let outcome = match self.check(x, gyro, sample, config, now, noise_factor) {
             Ok(report) => self.gate_and_fuse(x, p, gyro, &report, config),
             Err(r) => {
                 let previous = self.status.as_ref();
@@ -163,6 +167,7 @@ impl FlowFusion {
         sample: &FlowSample,
         config: &FlowConfig,
         now: Timestamp,
+        noise_factor: f32,
     ) -> Result<Checked, Reject> {
         // The counts are since the previous report: the first one only
         // opens the interval.
@@ -175,7 +180,7 @@ impl FlowFusion {
         if !z.iter().all(|v| v.is_finite()) {
             return Err(Reject::NonFinite);
         }
-        let std = flow_std(sample, config, z.norm(), dt);
+        let std = flow_std(sample, config, z.norm(), dt) * noise_factor;
         let plausible = z.norm() <= config.reset_max_speed;
         if plausible {
             self.window.push(sample.t, z, std);

@@ -33,6 +33,7 @@ pub struct AidSums<const N: usize> {
     innovation_sum: [f64; N],
     innovation_sq: [f64; N],
     nis_comp_sum: [f64; N],
+    var_sum: [f64; N],
 }
 
 impl<const N: usize> Default for AidSums<N> {
@@ -51,6 +52,7 @@ impl<const N: usize> Default for AidSums<N> {
             innovation_sum: [0.0; N],
             innovation_sq: [0.0; N],
             nis_comp_sum: [0.0; N],
+            var_sum: [0.0; N],
         }
     }
 }
@@ -84,6 +86,7 @@ impl<const N: usize> AidSums<N> {
                 self.innovation_sum[i] += nu;
                 self.innovation_sq[i] += nu * nu;
                 self.nis_comp_sum[i] += nu * nu / f64::from(var);
+                self.var_sum[i] += f64::from(var);
             }
         }
         true
@@ -92,7 +95,7 @@ impl<const N: usize> AidSums<N> {
     /// The report entry: counts, the gated fraction of the records that
     /// formed a statistic, the mean statistic against `dof`, and per
     /// component (named by `names`) the innovation's mean and RMS and the
-    /// mean 1-DOF NIS.
+    /// mean 1-DOF NIS and predicted innovation variance (`H P H^T + R`).
     fn to_json(&self, dof: Option<u32>, names: [&str; N]) -> Value {
         let mean = |s: f64, n: u32| (n > 0).then(|| s / f64::from(n));
         let components: Vec<Value> = (0..N)
@@ -105,6 +108,7 @@ impl<const N: usize> AidSums<N> {
                     "innovation_mean": mean(self.innovation_sum[i], n),
                     "innovation_rms": mean(self.innovation_sq[i], n).map(f64::sqrt),
                     "nis_mean": mean(self.nis_comp_sum[i], n),
+                    "innovation_var_mean": mean(self.var_sum[i], n),
                 })
             })
             .collect();
@@ -133,6 +137,8 @@ pub struct AidStats {
     pub zupt: AidSums<9>,
     /// Floor constraint: height and climb rows.
     pub floor: AidSums<2>,
+    /// Camera frame pairs: rotation then translation rows.
+    pub camera: AidSums<6>,
     /// Every wheel status record taken, in order.
     pub wheel_records: Vec<WheelStatus>,
 }
@@ -151,6 +157,8 @@ impl AidStats {
         self.zupt.take(ekf.zupt_counts().seen(), ekf.zupt_status());
         self.floor
             .take(ekf.floor_counts().seen(), ekf.floor_status());
+        self.camera
+            .take(ekf.camera_counts().seen(), ekf.camera_status());
     }
 
     /// report.json `aids`.
@@ -162,6 +170,7 @@ impl AidStats {
                 "vx", "vy", "vz", "px", "py", "pz", "rx", "ry", "rz",
             ]),
             "floor": self.floor.to_json(Some(1), ["height", "climb"]),
+            "camera": self.camera.to_json(None, ["rx", "ry", "rz", "tx", "ty", "tz"]),
         })
     }
 }

@@ -317,6 +317,7 @@ impl Collected {
             .view()
             .map_err(|e| CliError::file(path, e.to_string()))?;
         let outcome = est.process_camera(t, &view);
+        self.aids.observe(est.ekf());
         self.camera_frames += 1;
         self.log((
             Stream::Camera,

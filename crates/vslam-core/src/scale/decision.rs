@@ -30,6 +30,9 @@ pub struct FrameDecision {
     /// Adverse-memory weight applied to the camera here (its confidence
     /// includes it).
     pub camera_weight: f32,
+    /// Adverse-memory weight of the IMU here (the pipeline does not use
+    /// the IMU's readings as a distance; the EKF's propagation takes it).
+    pub imu_weight: f32,
     /// The wheels' heading change over the pair, rad.
     pub wheel_yaw: f32,
     /// The gyro's heading change over the pair (not bias-corrected), rad,

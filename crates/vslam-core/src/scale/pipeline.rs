@@ -330,6 +330,7 @@ impl<const N: usize, const W: usize> ScalePipeline<N, W> {
 
         let wheel_weight = self.memory.weight(SensorKind::Wheel, &position, t1);
         let flow_weight = self.memory.weight(SensorKind::Flow, &position, t1);
+        let imu_weight = self.memory.weight(SensorKind::Imu, &position, t1);
         let wc = wheel_confidence(
             slip.amount,
             cfg.slip.threshold,
@@ -418,6 +419,7 @@ impl<const N: usize, const W: usize> ScalePipeline<N, W> {
             wheel_weight,
             flow_weight,
             camera_weight,
+            imu_weight,
             wheel_yaw: ws.yaw,
             imu_yaw: imu_ok.then_some(imu.yaw),
             slip,
