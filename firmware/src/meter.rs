@@ -121,15 +121,41 @@ pub struct Meter {
     /// (0: none).
     overflow: (Step, usize),
     last_propagate: Option<u32>,
-    /// The part being measured: `(part, tick before painting, tick at
-    /// entry, stack top, painted depth)`.
-    open: Option<(Part, u32, u32, usize, usize)>,
+    /// The part being measured, if `open.open`.
+    open: OpenPart,
     /// Ticks the parts' probes spent painting and scanning, in all.
     probe_ticks: u32,
     /// Parts measured, in all.
     parts: u32,
     /// Calibration: the parts' ticks are summed here, not recorded.
     calibrating: Option<u32>,
+}
+
+/// The part being measured (no `Option`: its `None` would be a nonzero
+/// niche of `Part`, and the meter's initial image would go to `.data`).
+#[derive(Clone, Copy)]
+struct OpenPart {
+    /// Whether a part is being measured.
+    open: bool,
+    part: Part,
+    /// Tick before painting.
+    before: u32,
+    /// Tick at entry.
+    t0: u32,
+    /// Stack top and painted depth.
+    top: usize,
+    depth: usize,
+}
+
+impl OpenPart {
+    const NONE: OpenPart = OpenPart {
+        open: false,
+        part: Part::Propagate,
+        before: 0,
+        t0: 0,
+        top: 0,
+        depth: 0,
+    };
 }
 
 /// The measurements (a static: hundreds of KB, in `.bss`).
@@ -186,7 +212,7 @@ impl Meter {
             estimator_limit: 0,
             overflow: (Step::Propagate, 0),
             last_propagate: None,
-            open: None,
+            open: OpenPart::NONE,
             probe_ticks: 0,
             parts: 0,
             calibrating: None,
@@ -328,15 +354,26 @@ impl Probe for Metered {
         let depth = part_depth(part);
         let top = stack::paint_depth(depth);
         let t0 = systick::now();
-        with(|m| m.open = Some((part, a, t0, top, depth)));
+        with(|m| {
+            m.open = OpenPart {
+                open: true,
+                part,
+                before: a,
+                t0,
+                top,
+                depth,
+            }
+        });
     }
 
     #[inline(always)]
     fn leave(&mut self, part: Part, done: bool) {
         let t1 = systick::now();
-        let Some((open, a, t0, top, depth)) = with(|m| m.open.take()) else {
+        let o = with(|m| core::mem::replace(&mut m.open, OpenPart::NONE));
+        if !o.open {
             return;
-        };
+        }
+        let (open, a, t0, top, depth) = (o.part, o.before, o.t0, o.top, o.depth);
         let used = stack::used_depth(top, depth);
         let b = systick::now();
         with(|m| {
