@@ -47,6 +47,14 @@
 //! and [`EstimatorWith::configure`] writes the configuration into every part
 //! where it lies; [`EstimatorWith::fit_frontend`] adds the camera path.
 //! [`EstimatorWith::new`] builds a value (on the stack or in a `Box`).
+//!
+//! # Measuring the parts
+//!
+//! The last type parameter is a [`Probe`] ([`NoProbe`] by default, zero
+//! bytes and no code) that the estimator calls around each call into a part
+//! ([`Part`]: the EKF's propagation and updates, the odometry, the scale
+//! pipeline, the front end, the disagreement check);
+//! [`EstimatorWith::unconfigured_with_probe`] builds one with another probe.
 
 use crate::disagreement::DisagreementCheck;
 use crate::estimate::{Estimate, estimate_of};
@@ -56,15 +64,21 @@ use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
 use ego_ekf::{ConfigError, EgoEkf, FilterConfig, ImuStep, SensorWeights, WheelInnovation};
 use heapless::Deque;
+use probe::probed;
+pub use probe::{NoProbe, Part, Probe};
 use vslam_core::adverse::{AdverseError, AdverseKind, SensorKind};
 use vslam_core::disagree::Gates;
 use vslam_core::flow_frames::{FramePairMotion, raw_optics};
 use vslam_core::image::{ImageView, LabelView};
 use vslam_core::scale::flow::FlowStep;
-use vslam_core::scale::{FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline};
+use vslam_core::scale::{
+    CameraMotion, FrameDecision, PipelineConfig, PipelineConfigError, ScalePipeline,
+};
 use vslam_core::sensors::{FlowSample, ImuSample, RawImuSample, RawWheelRates, WheelTicks};
 use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timestamp};
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
+
+pub mod probe;
 
 /// Samples the ordering buffer holds ([`Estimator`]'s default).
 pub const REORDER_CAPACITY: usize = 64;
@@ -248,8 +262,9 @@ pub type Estimator<'b> =
 /// [`MIN_TRAJECTORY_CAPACITY`]) and `JOLTS` jolt events in the log (at least
 /// [`MIN_JOLT_LOG`]) and `SCALE` frames in the running-scale window (at
 /// least [`MIN_SCALE_WINDOW`], and at least the configuration's
-/// `scale.robust.min_count`, checked by [`EstimatorWith::configure`]).
-/// Smaller capacities are refused at compile time:
+/// `scale.robust.min_count`, checked by [`EstimatorWith::configure`]); `P`
+/// is called around each part's work ([`Probe`]; [`NoProbe`], the default,
+/// does nothing). Smaller capacities are refused at compile time:
 ///
 /// ```compile_fail
 /// use traction::estimator::EstimatorWith;
@@ -268,6 +283,7 @@ pub struct EstimatorWith<
     const TRAJECTORY: usize,
     const JOLTS: usize,
     const SCALE: usize,
+    P: Probe = NoProbe,
 > {
     ekf: EgoEkf,
     odometry: DiffDriveOdometry,
@@ -282,21 +298,12 @@ pub struct EstimatorWith<
     disagreement: DisagreementCheck,
     ended: bool,
     configured: bool,
+    probe: P,
 }
 
 impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, const SCALE: usize>
-    EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE>
+    EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, NoProbe>
 {
-    /// The capacities' lower bounds, checked when the type is used.
-    const CAPACITIES: () = assert!(
-        REORDER >= MIN_REORDER_CAPACITY
-            && TRAJECTORY >= MIN_TRAJECTORY_CAPACITY
-            && JOLTS >= MIN_JOLT_LOG
-            && SCALE >= MIN_SCALE_WINDOW,
-        "estimator capacities below their minimum (MIN_REORDER_CAPACITY, \
-         MIN_TRAJECTORY_CAPACITY, MIN_JOLT_LOG, MIN_SCALE_WINDOW)"
-    );
-
     /// Builds the estimator; `frontend` is the camera path, if a camera is fitted.
     pub fn new(
         config: &EstimatorConfig,
@@ -329,6 +336,32 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
     /// assert!(est.is_configured());
     /// ```
     pub const fn unconfigured() -> Self {
+        Self::unconfigured_with_probe(NoProbe)
+    }
+}
+
+impl<
+    'b,
+    const REORDER: usize,
+    const TRAJECTORY: usize,
+    const JOLTS: usize,
+    const SCALE: usize,
+    P: Probe,
+> EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, P>
+{
+    /// The capacities' lower bounds, checked when the type is used.
+    const CAPACITIES: () = assert!(
+        REORDER >= MIN_REORDER_CAPACITY
+            && TRAJECTORY >= MIN_TRAJECTORY_CAPACITY
+            && JOLTS >= MIN_JOLT_LOG
+            && SCALE >= MIN_SCALE_WINDOW,
+        "estimator capacities below their minimum (MIN_REORDER_CAPACITY, \
+         MIN_TRAJECTORY_CAPACITY, MIN_JOLT_LOG, MIN_SCALE_WINDOW)"
+    );
+
+    /// As [`EstimatorWith::unconfigured`], with `probe` called around each
+    /// part's work (a `const fn` too).
+    pub const fn unconfigured_with_probe(probe: P) -> Self {
         let () = Self::CAPACITIES;
         EstimatorWith {
             ekf: EgoEkf::unconfigured(),
@@ -344,7 +377,18 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
             disagreement: DisagreementCheck::new(Gates::DEFAULT),
             ended: false,
             configured: false,
+            probe,
         }
+    }
+
+    /// The probe.
+    pub fn probe(&self) -> &P {
+        &self.probe
+    }
+
+    /// The probe, to change.
+    pub fn probe_mut(&mut self) -> &mut P {
+        &mut self.probe
     }
 
     /// Configures every part in place and starts over: the filter, the
@@ -490,15 +534,64 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
         if let Some(s) = &self.surface {
             let _ = self.scale.set_wheel_grip(s.grip_params(t).grip());
         }
-        let Some(motion) = frontend.process(t, image)? else {
+        let processed = probed(&mut self.probe, Part::FrontEnd, || {
+            frontend.process(t, image)
+        });
+        let Some(motion) = processed? else {
             return Ok(None);
         };
-        let decision = self.scale.push_camera(&motion)?;
+        // The frame pair is counted once, by the camera path.
+        self.fuse_camera_motion(&motion).map(Some)
+    }
+
+    /// Processes a frame pair's camera motion measured outside the
+    /// estimator (another front end, a recorded log) as
+    /// [`EstimatorWith::process_camera`] processes its front end's, after
+    /// every buffered sample up to the pair's second frame. Gives the scale
+    /// decision, or the reason the pair was not used; counted under
+    /// [`Stream::Camera`].
+    pub fn process_camera_motion(
+        &mut self,
+        motion: &CameraMotion,
+    ) -> Result<FrameDecision, Reject> {
+        let t = motion.t1();
+        while self.poll_until(t).is_some() {}
+        let outcome = if self.configured {
+            self.set_wheel_grip(t);
+            self.fuse_camera_motion(motion)
+        } else {
+            Err(Reject::NotReady)
+        };
+        self.counts[Stream::Camera].record(outcome.map(|_| ()));
+        outcome
+    }
+
+    /// The floor's grip under the wheels at `t` into the scale pipeline,
+    /// as [`EstimatorWith::process_camera`] sets it.
+    fn set_wheel_grip(&mut self, t: Timestamp) {
+        if let Some(s) = &self.surface {
+            let _ = self.scale.set_wheel_grip(s.grip_params(t).grip());
+        }
+    }
+
+    /// A frame pair's `motion` into the scale pipeline, the disagreement
+    /// check and the EKF; the pair's verdicts into the wheels' distrust.
+    fn fuse_camera_motion(&mut self, motion: &CameraMotion) -> Result<FrameDecision, Reject> {
+        let decision = probed(&mut self.probe, Part::ScaleCamera, || {
+            self.scale.push_camera(motion)
+        })?;
         let scale = filter_scale(&decision);
         // Each sensor against the filter's motion over the pair, before
         // the pair is fused ([`crate::disagreement`]).
-        self.disagreement
-            .on_frame(&self.ekf, &motion, &decision, scale, &mut self.scale);
+        let _ = probed(&mut self.probe, Part::Disagreement, || {
+            Ok::<_, ()>(self.disagreement.on_frame(
+                &self.ekf,
+                motion,
+                &decision,
+                scale,
+                &mut self.scale,
+            ))
+        });
         // The memory's weights where the robot is now hold in the EKF until
         // the next frame (weights lie in (0, 1]; a refusal keeps the last).
         let _ = self.ekf.set_sensor_weights(SensorWeights {
@@ -506,12 +599,12 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
             wheel: decision.wheel_weight,
             flow: decision.flow_weight,
         });
-        // The EKF counts its own outcome (`EgoEkf::camera_counts`); the
-        // frame pair is counted once here, by the camera path. The camera's
-        // memory weight here inflates its noise.
-        let _ = self
-            .ekf
-            .fuse_camera_weighted(&motion, scale, decision.camera_weight);
+        // The EKF counts its own outcome (`EgoEkf::camera_counts`). The
+        // camera's memory weight here inflates its noise.
+        let _ = probed(&mut self.probe, Part::FuseCamera, || {
+            self.ekf
+                .fuse_camera_weighted(motion, scale, decision.camera_weight)
+        });
         // The scale pipeline's slip and wheel-outlier verdicts set the EKF's
         // wheel noise over the next interval (a factor the filter refuses
         // changes nothing).
@@ -521,7 +614,7 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
         {
             let _ = self.ekf.distrust_wheels_until(until, factor);
         }
-        Ok(Some(decision))
+        Ok(decision)
     }
 
     /// Processes one raw frame of the flow sensor grabbed at `t`, as the
@@ -615,11 +708,15 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
         match event {
             Event::Imu(raw) => self.process_imu(&raw),
             Event::Wheel(ticks) => {
-                let step = self.odometry.update(ticks);
+                let step = probed(&mut self.probe, Part::Odometry, || {
+                    self.odometry.update(ticks)
+                });
                 self.process_wheel(ticks.t, step)
             }
             Event::WheelRates(rates) => {
-                let step = self.odometry.update_rates(rates);
+                let step = probed(&mut self.probe, Part::Odometry, || {
+                    self.odometry.update_rates(rates)
+                });
                 self.process_wheel(rates.t, step)
             }
             Event::Flow(s) => self.process_flow(&s),
@@ -628,11 +725,16 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
 
     fn process_imu(&mut self, raw: &RawImuSample) -> Processed {
         let cfg = self.ekf.config();
-        let outcome = ImuSample::with_range(raw, cfg.imu.gyro_max, cfg.imu.accel_max)
-            .and_then(|s| self.ekf.propagate(&s).map(|step| (s, step)));
+        let outcome =
+            ImuSample::with_range(raw, cfg.imu.gyro_max, cfg.imu.accel_max).and_then(|s| {
+                probed(&mut self.probe, Part::Propagate, || self.ekf.propagate(&s))
+                    .map(|step| (s, step))
+            });
         let mut jolt = None;
         if let Ok((sample, step)) = &outcome {
-            let _ = self.scale.push_imu(sample);
+            let _ = probed(&mut self.probe, Part::ScaleImu, || {
+                self.scale.push_imu(sample)
+            });
             let ctx = match &self.surface {
                 Some(s) => s.jolt_context(step.t, self.forward_speed()),
                 None => JoltContext::from_params(&self.ekf.grip(), None),
@@ -688,11 +790,15 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
             // The first sample only anchors the counts.
             Ok(None) => Err(Reject::NotReady),
             Ok(Some(step)) => {
-                let _ = self.scale.push_wheel(&step.delta);
+                let _ = probed(&mut self.probe, Part::ScaleWheel, || {
+                    self.scale.push_wheel(&step.delta)
+                });
                 if let Some(s) = &self.surface {
                     self.ekf.set_grip(s.grip_params(t));
                 }
-                let fused = self.ekf.fuse_wheel(&step.rates);
+                let fused = probed(&mut self.probe, Part::FuseWheel, || {
+                    self.ekf.fuse_wheel(&step.rates)
+                });
                 if let (Ok(inn), Some(s)) = (&fused, self.surface.as_mut()) {
                     let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, inn.gated);
                     let _ = s.on_wheel_slip(t, inn.forward, inn.speed, inn.gated);
@@ -710,8 +816,8 @@ impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, cons
     }
 
     fn process_flow(&mut self, s: &FlowSample) -> Processed {
-        let _ = self.scale.push_flow(s);
-        let outcome = self.ekf.fuse_flow(s).map(|_| ());
+        let _ = probed(&mut self.probe, Part::ScaleFlow, || self.scale.push_flow(s));
+        let outcome = probed(&mut self.probe, Part::FuseFlow, || self.ekf.fuse_flow(s)).map(|_| ());
         self.counts[Stream::Flow].record(outcome);
         Processed::Flow { t: s.t, outcome }
     }

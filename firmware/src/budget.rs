@@ -2,7 +2,8 @@
 //! from the instructions measured per call.
 //!
 //! A task is one sensor's work at its rate (the IMU's propagation at 250 Hz,
-//! the camera's front end, scale push and EKF fusion at 10 Hz, ...). Its cost
+//! the camera's front end, scale push, disagreement check and EKF fusion at
+//! 10 Hz, ...). Its cost
 //! per call is the sum of its steps' **median** instructions over the calls
 //! that did the work (the median, not the mean: the front end's first call
 //! only detects corners and would pull a mean of three calls down), and its
@@ -59,7 +60,12 @@ pub const LOOP: [Task; 6] = [
     Task {
         name: "camera_10hz_160x120",
         rate_hz: 10,
-        steps: &[Step::FrontEnd, Step::ScaleCamera, Step::FuseCamera],
+        steps: &[
+            Step::FrontEnd,
+            Step::ScaleCamera,
+            Step::Disagreement,
+            Step::FuseCamera,
+        ],
     },
     Task {
         name: "segmentation_2hz_160x120",

@@ -1,5 +1,5 @@
-//! traction on a Cortex-M4F (QEMU `mps2-an386`): runs the EKF loop and the
-//! scale pipeline over the embedded sample data (`data/sample.bin`), and
+//! traction on a Cortex-M4F (QEMU `mps2-an386`): runs `traction::Estimator`
+//! over the embedded sample data (`data/sample.bin`) and camera frames, and
 //! prints through semihosting the instructions per step (SysTick under
 //! `-icount shift=0`), the peak stack per step (stack painting), the sizes of
 //! the estimator's objects and the final state, which `firmware/check`
@@ -18,14 +18,16 @@ use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
 use traction::ego_ekf::EgoEkf;
 use traction::ego_ekf::state::{Covariance, NominalState};
-use traction::estimator::Estimator;
+use traction::estimator::{
+    Estimator, EstimatorWith, JOLT_LOG, REORDER_CAPACITY, SCALE_WINDOW, TRAJECTORY_CAPACITY,
+};
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::Extrinsics;
 use traction::vslam_core::scale::ScalePipeline;
 use traction::wheel_odom::odometry::DiffDriveOdometry;
 use traction_firmware::budget;
-use traction_firmware::meter::{Meter, Spread};
+use traction_firmware::meter::{self, METER, Meter, Metered, Spread};
 use traction_firmware::replay::{self, Step, TRAJECTORY};
 use traction_firmware::systick;
 
@@ -48,13 +50,17 @@ static mut FE_CURRENT_PYRAMID: [u8; FE_SIZES[2]] = [0; FE_SIZES[2]];
 static mut FE_CORNER_SCRATCH: [f32; FE_SIZES[3]] = [0.0; FE_SIZES[3]];
 /// The floor model's label map for a 160x120 frame (2x2 cells).
 static mut SEGMENT_MAP: [u8; FRAME.0 / 2 * (FRAME.1 / 2)] = [0; FRAME.0 / 2 * (FRAME.1 / 2)];
-/// The measurements (a static: hundreds of KB).
-static mut METER: Meter = Meter::empty();
-/// The estimator, built at compile time (`Estimator::unconfigured` is a
-/// `const fn`) and configured in place by `replay::run_estimator`.
-static mut ESTIMATOR: Estimator<'static> = Estimator::unconfigured();
-/// Stack painted below a front-end call.
-const FRONTEND_PAINT: usize = 160 * 1024;
+/// The estimator, built at compile time (`unconfigured_with_probe` is a
+/// `const fn`) and configured in place by `replay::run`: `Estimator` with
+/// the firmware's probe around its parts (zero bytes, the same size).
+static mut ESTIMATOR: EstimatorWith<
+    'static,
+    REORDER_CAPACITY,
+    TRAJECTORY_CAPACITY,
+    JOLT_LOG,
+    SCALE_WINDOW,
+    Metered,
+> = EstimatorWith::unconfigured_with_probe(Metered);
 
 /// Semihosting stdout, one host call per line.
 struct Out {
@@ -184,6 +190,13 @@ fn estimator_memory(out: &mut Out, meter: &Meter) {
         "estimator stack_peak {peak} limit {}",
         meter.estimator_limit
     );
+    let camera = meter.stack.get(Step::EstCamera.index()).copied();
+    let _ = writeln!(
+        out,
+        "estimator stack_process_camera {} limit {}",
+        camera.unwrap_or(0),
+        meter.estimator_limit
+    );
     let [frame, previous, current, scratch] = FE_SIZES;
     let buffers = frame + previous + current + scratch * size_of::<f32>();
     let estimator = size_of::<Estimator<'static>>();
@@ -210,9 +223,7 @@ fn main() -> ! {
         finish(&mut out, false)
     };
     systick::start(&mut core.SYST);
-    // SAFETY: the only reference ever made to this static, made once.
-    let meter = unsafe { &mut *core::ptr::addr_of_mut!(METER) };
-    meter.calibrate();
+    meter::calibrate();
     // CPUID part number (ARMv7-M ARM B3.2.3): 0xC24 Cortex-M4, 0xC27 Cortex-M7.
     let cpuid = core.CPUID.base.read();
     let cpu = match (cpuid >> 4) & 0xFFF {
@@ -225,13 +236,20 @@ fn main() -> ! {
         "traction firmware: {cpu} (CPUID {cpuid:#010x}), thumbv7em-none-eabihf; sample data {} bytes",
         SAMPLE.len()
     );
+    let (ipt, overhead, part_overhead, part_residual) = meter::with(|m| {
+        (
+            m.instructions_per_tick,
+            m.overhead,
+            m.part_overhead,
+            m.part_residual,
+        )
+    });
     let _ = writeln!(
         out,
-        "calibration instructions_per_tick {} overhead_instructions {}",
-        meter.instructions_per_tick, meter.overhead
+        "calibration instructions_per_tick {ipt} overhead_instructions {overhead} \
+         part_overhead_instructions {part_overhead} part_residual_instructions {part_residual}"
     );
-    let (t0, t1, ticks, expected) =
-        systick::wrap_check(&mut core.SYST, 1_000_000, meter.instructions_per_tick);
+    let (t0, t1, ticks, expected) = systick::wrap_check(&mut core.SYST, 1_000_000, ipt);
     let _ = writeln!(
         out,
         "systick wrap_check start {t0:#08x} end {t1:#08x} elapsed {ticks} expected {expected} {}",
@@ -241,31 +259,16 @@ fn main() -> ! {
             "FAILED"
         }
     );
-    let summary = match replay::run(SAMPLE, meter) {
+    // SAFETY: the only reference ever made to this static, made once.
+    let estimator = unsafe { &mut *core::ptr::addr_of_mut!(ESTIMATOR) };
+    let summary = match replay::run(SAMPLE, estimator, &mut Metered) {
         Ok(s) => s,
         Err(e) => {
             let _ = writeln!(out, "error {e}");
             finish(&mut out, false)
         }
     };
-    // SAFETY: the only reference ever made to this static, made once.
-    let estimator = unsafe { &mut *core::ptr::addr_of_mut!(ESTIMATOR) };
-    let est_run = match replay::run_estimator(SAMPLE, estimator, meter) {
-        Ok(r) => r,
-        Err(e) => {
-            let _ = writeln!(out, "error {e}");
-            finish(&mut out, false)
-        }
-    };
-    if let Some((step, used)) = meter.overflow() {
-        let _ = writeln!(
-            out,
-            "error stack_overflow {} used {used} limit {}",
-            step.name(),
-            meter.estimator_limit
-        );
-        finish(&mut out, false)
-    }
+    overflow_check(&mut out);
     // SAFETY: the only references ever made to these statics, made once.
     let buffers = unsafe {
         FrontEndBuffers {
@@ -275,10 +278,12 @@ fn main() -> ! {
             corner_scratch: &mut *core::ptr::addr_of_mut!(FE_CORNER_SCRATCH),
         }
     };
-    meter.depth = FRONTEND_PAINT;
+    meter::with(|m| m.depth = traction_firmware::stack::FRONTEND_PAINT);
     let frontend = traction_firmware::sample::open(SAMPLE)
         .map_err(replay::RunError::Format)
-        .and_then(|(header, _)| replay::run_frontend(FRAMES, &header, buffers, meter));
+        .and_then(|(header, _)| {
+            replay::run_frontend(FRAMES, &header, estimator, buffers, &mut Metered)
+        });
     let frontend = match frontend {
         Ok(f) => f,
         Err(e) => {
@@ -286,17 +291,21 @@ fn main() -> ! {
             finish(&mut out, false)
         }
     };
-    let mut medians = [None; Step::ALL.len()];
-    meter.depth = traction_firmware::stack::DEPTH;
+    overflow_check(&mut out);
+    meter::with(|m| m.depth = traction_firmware::stack::DEPTH);
     // SAFETY: the only reference ever made to this static, made once.
     let segment_map = unsafe { &mut *core::ptr::addr_of_mut!(SEGMENT_MAP) };
-    let segment = match replay::run_segment(FRAMES, segment_map, meter) {
+    let segment = match replay::run_segment(FRAMES, segment_map, &mut Metered) {
         Ok(s) => s,
         Err(e) => {
             let _ = writeln!(out, "error {e}");
             finish(&mut out, false)
         }
     };
+    // SAFETY: nothing is measured from here on: the only reference made to
+    // the meter while it lives.
+    let meter = unsafe { &mut *core::ptr::addr_of_mut!(METER) };
+    let mut medians = [None; Step::ALL.len()];
     for step in Step::ALL {
         let i = step.index();
         let stack = meter.stack.get(i).copied().unwrap_or(0);
@@ -329,7 +338,6 @@ fn main() -> ! {
     sizes(&mut out);
     estimator_memory(&mut out, meter);
     let _ = summary.write(&mut out);
-    let _ = est_run.write(&mut out);
     let _ = summary.write_counts(&mut out);
     let _ = frontend.write(&mut out);
     let _ = segment.write(&mut out);
@@ -351,6 +359,19 @@ fn cortex_m_rt_stack_start() -> usize {
         static _stack_start: u32;
     }
     core::ptr::addr_of!(_stack_start) as usize
+}
+
+/// Ends the run if an estimator call went past its stack limit.
+fn overflow_check(out: &mut Out) {
+    if let Some((step, used)) = meter::with(|m| m.overflow()) {
+        let limit = meter::with(|m| m.estimator_limit);
+        let _ = writeln!(
+            out,
+            "error stack_overflow {} used {used} limit {limit}",
+            step.name()
+        );
+        finish(out, false)
+    }
 }
 
 fn finish(out: &mut Out, ok: bool) -> ! {

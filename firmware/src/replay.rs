@@ -1,50 +1,55 @@
-//! The firmware's estimation loop over the embedded sample data, shared
-//! word for word with the host check (`crates/host-sim/tests/firmware_match.rs` includes this
-//! file by `#[path]`), so the firmware and the host run the same code on the
-//! same bytes.
+//! The firmware's run over the embedded sample data, through
+//! `traction::Estimator`, shared word for word with the host check
+//! (`crates/host-sim/tests/firmware_match.rs` includes this file by
+//! `#[path]`), so the firmware and the host run the same code on the same
+//! bytes.
 //!
-//! Per record, in stream order, as `traction::Estimator` does it (without the
-//! surface model and jolt monitor, which need segmentation maps):
+//! - [`run`]: the estimator is configured in place from the sample's header
+//!   ([`EstimatorConfig::from_robot`]); every IMU, wheel and flow record goes
+//!   in through `offer` and out through `poll`, every camera motion through
+//!   `process_camera_motion` (after polling up to its time), as a user's
+//!   firmware writes it. After each wheel update the waypoint navigator turns
+//!   the estimate into a wheel command.
+//! - [`run_frontend`]: the same estimator configured again, with the camera
+//!   path fitted in the caller's buffers; the embedded 160x120 frames go
+//!   through `process_camera`.
+//! - [`run_segment`]: the reference floor segmenter on the same frames (not a
+//!   part of the estimator, which takes label maps).
 //!
-//! - IMU: validated with the filter's range, [`EgoEkf::propagate`] (250 Hz),
-//!   then the scale pipeline's IMU window;
-//! - wheel counts: `wheel-odom` odometry, the scale pipeline's wheel window,
-//!   [`EgoEkf::fuse_wheel`] (the wheel rate, 50 Hz);
-//! - flow report: the scale pipeline's flow window, [`EgoEkf::fuse_flow`];
-//! - camera motion: [`ScalePipeline::push_camera`], then
-//!   [`EgoEkf::fuse_camera`] with `traction::estimator::filter_scale` (10 Hz).
-//!
-//! Every call is made through a [`Probe`], which the firmware uses to count
-//! instructions and paint the stack, and the host leaves empty.
+//! Each call of the estimator (and of the navigator and segmenter) is made
+//! through a [`Measure`]; inside the estimator, its own probe
+//! ([`traction::estimator::Probe`], the type parameter `P`) is called around
+//! each part (EKF, odometry, scale pipeline, front end, disagreement check).
+//! The firmware measures both (`crate::meter`); the host leaves both empty.
 
 use core::fmt::{self, Write};
 
-use traction::ego_ekf::{EgoEkf, FilterConfig};
-use traction::estimate::estimate_of;
-use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, filter_scale};
-use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
+use traction::ego_ekf::EgoEkf;
+use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, Part, Probe};
+use traction::frontend::{FrontEndBuffers, FrontEndConfig};
 use traction::navigate::{Command, NavConfig, Navigator, Point, Policy};
 use traction::reorder::Event;
 use traction::vslam_core::adverse::SensorKind;
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::geometry::{Extrinsics, Vec3};
 use traction::vslam_core::image::ImageView;
+use traction::vslam_core::pose::Pose;
 use traction::vslam_core::robot::{
     FlowDescription, ImuDescription, ImuNoise, RobotDescription, RobotError, Wheels,
 };
-use traction::vslam_core::scale::CameraMotion;
-use traction::vslam_core::scale::{PipelineConfig, ScalePipeline};
-use traction::vslam_core::sensors::ImuSample;
-use traction::vslam_core::{PerStream, Reject, SampleCounts, Stream};
-use traction::wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
+use traction::vslam_core::scale::RobustEstimate;
+use traction::vslam_core::{PerStream, SampleCounts, Stream, StreamCounts, Timestamp};
+use traction::wheel_odom::odometry::DiffDriveOdometry;
+use traction::{Estimate, Processed};
 
 use crate::frames;
 use crate::sample::{FormatError, Header, Record, open};
 
 /// Recent poses the scale pipeline keeps (as in `traction::Estimator`).
-pub const TRAJECTORY: usize = 32;
+pub const TRAJECTORY: usize = traction::estimator::TRAJECTORY_CAPACITY;
 
-/// The calls the loop makes, each measured on its own.
+/// The measured calls: the estimator's parts (see [`Step::of`]) and the
+/// calls the run makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Step {
     /// `EgoEkf::propagate`: nominal state, 36x36 covariance, clone, ZUPT when due.
@@ -63,7 +68,7 @@ pub enum Step {
     ScaleFlow,
     /// `ScalePipeline::push_camera`.
     ScaleCamera,
-    /// `EgoEkf::fuse_camera`: the frame pair against the pose clone.
+    /// `EgoEkf::fuse_camera_weighted`: the frame pair against the pose clone.
     FuseCamera,
     /// `FrontEnd::process` of one camera frame (pyramid, corners, LK,
     /// RANSAC homography, decomposition).
@@ -72,20 +77,28 @@ pub enum Step {
     /// (the reference floor segmenter; its cost does not depend on the
     /// image's content).
     Segment,
-    /// `estimate_of` plus `Navigator::command`: the waypoint navigator's
-    /// wheel command from the filter's estimate, after each wheel update.
+    /// `Estimator::estimate` plus `Navigator::command`: the waypoint
+    /// navigator's wheel command from the estimate, after each wheel update.
     Navigate,
     /// `Estimator::configure` of the estimator in its static, in place.
     EstConfigure,
     /// `Estimator::offer` of one IMU, wheel or flow sample.
     EstOffer,
-    /// `Estimator::poll` that processed a sample.
+    /// `Estimator::poll` (or `poll_until`) that processed a sample.
     EstPoll,
+    /// `DisagreementCheck::on_frame` inside the estimator: each sensor
+    /// against the EKF per frame pair.
+    Disagreement,
+    /// `Estimator::process_camera_motion` of one camera motion.
+    EstCameraMotion,
+    /// `Estimator::process_camera` of one 160x120 frame (the front end and
+    /// the rest of the camera path).
+    EstCamera,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 15] = [
+    pub const ALL: [Step; 18] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -101,11 +114,31 @@ impl Step {
         Step::EstConfigure,
         Step::EstOffer,
         Step::EstPoll,
+        Step::Disagreement,
+        Step::EstCameraMotion,
+        Step::EstCamera,
     ];
 
     /// Position in [`Step::ALL`].
     pub const fn index(self) -> usize {
         self as usize
+    }
+
+    /// The step of a part of the estimator.
+    pub const fn of(part: Part) -> Step {
+        match part {
+            Part::Propagate => Step::Propagate,
+            Part::FuseWheel => Step::FuseWheel,
+            Part::FuseFlow => Step::FuseFlow,
+            Part::FuseCamera => Step::FuseCamera,
+            Part::Odometry => Step::Odometry,
+            Part::ScaleImu => Step::ScaleImu,
+            Part::ScaleWheel => Step::ScaleWheel,
+            Part::ScaleFlow => Step::ScaleFlow,
+            Part::ScaleCamera => Step::ScaleCamera,
+            Part::FrontEnd => Step::FrontEnd,
+            Part::Disagreement => Step::Disagreement,
+        }
     }
 
     /// Name in reports.
@@ -126,26 +159,33 @@ impl Step {
             Step::EstConfigure => "estimator.configure",
             Step::EstOffer => "estimator.offer",
             Step::EstPoll => "estimator.poll",
+            Step::Disagreement => "disagreement.on_frame",
+            Step::EstCameraMotion => "estimator.process_camera_motion",
+            Step::EstCamera => "estimator.process_camera",
         }
     }
 
-    /// A call of `traction::Estimator` (held to the estimator's stack limit).
+    /// A call of `traction::Estimator` held to the estimator's stack limit
+    /// (`process_camera` runs the front end, whose stack is reported apart).
     pub const fn is_estimator(self) -> bool {
-        matches!(self, Step::EstConfigure | Step::EstOffer | Step::EstPoll)
+        matches!(
+            self,
+            Step::EstConfigure | Step::EstOffer | Step::EstPoll | Step::EstCameraMotion
+        )
     }
 }
 
-/// Wraps every call of the loop: measure it, or just run it.
-pub trait Probe {
+/// Wraps every call the run makes: measure it, or just run it.
+pub trait Measure {
     /// Runs `f`, the call `step`; its outcome tells a completed call from
     /// an early refusal.
     fn measure<T, E>(&mut self, step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E>;
 }
 
-/// A probe that only runs the calls (the host).
-pub struct NoProbe;
+/// Runs the calls unmeasured (the host).
+pub struct Unmeasured;
 
-impl Probe for NoProbe {
+impl Measure for Unmeasured {
     fn measure<T, E>(&mut self, _step: Step, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
         f()
     }
@@ -170,17 +210,6 @@ impl fmt::Display for RunError {
             RunError::Robot(e) => write!(f, "robot description refused: {e}"),
         }
     }
-}
-
-/// The configurations of the run, derived from the header as `host-sim
-/// replay` derives them from an ASL dataset.
-pub struct RunConfig {
-    /// The EKF.
-    pub filter: FilterConfig,
-    /// Wheel odometry.
-    pub odometry: DiffDriveParams,
-    /// The scale pipeline.
-    pub scale: PipelineConfig,
 }
 
 /// The robot the header describes: wheels and encoders, IMU noise, every
@@ -228,17 +257,12 @@ pub fn robot(h: &Header) -> Result<RobotDescription, RunError> {
     })
 }
 
-/// Builds the configurations from the header, through
-/// [`EstimatorConfig::from_robot`] as `host-sim replay` does.
-pub fn config(h: &Header) -> Result<RunConfig, RunError> {
-    let c = EstimatorConfig::from_robot(&robot(h)?).map_err(|e| match e {
+/// The estimator's configuration for the header's robot, through
+/// [`EstimatorConfig::from_robot`] as `host-sim replay` builds it.
+pub fn config(h: &Header) -> Result<EstimatorConfig, RunError> {
+    EstimatorConfig::from_robot(&robot(h)?).map_err(|e| match e {
         EstimatorError::Robot(e) => RunError::Robot(e),
         _ => RunError::Config("estimator"),
-    })?;
-    Ok(RunConfig {
-        filter: c.filter,
-        odometry: c.odometry,
-        scale: c.scale,
     })
 }
 
@@ -246,223 +270,162 @@ pub fn config(h: &Header) -> Result<RunConfig, RunError> {
 /// compares.
 #[derive(Clone, Debug)]
 pub struct Summary {
-    /// The filter after the last record.
+    /// The estimator's filter after the last record.
     pub ekf: EgoEkf,
-    /// The odometry after the last record.
+    /// Its odometry.
     pub odometry: DiffDriveOdometry,
-    /// The scale pipeline after the last record.
-    pub scale: ScalePipeline<TRAJECTORY>,
-    /// IMU samples refused by the range check before the filter.
-    pub imu_invalid: SampleCounts,
+    /// The scale pipeline's running scale.
+    pub running: Option<RobustEstimate>,
+    /// The scale pipeline's body pose (the scaled camera trajectory).
+    pub body_pose: Pose,
+    /// The scale pipeline's tallies per sensor, in [`SCALE_SENSORS`] order.
+    pub scale_counts: [SampleCounts; 4],
+    /// The estimate after the last record.
+    pub estimate: Option<Estimate>,
+    /// The estimator's per-stream counts.
+    pub counts: StreamCounts,
     /// Records of each stream (the sample format carries IMU, wheel, flow
     /// and camera records; the other streams stay at zero).
     pub records: PerStream<u32>,
+    /// Samples `poll` gave back.
+    pub processed: u32,
     /// Camera motions that got a scale.
     pub scaled_frames: u32,
-    /// Navigator commands computed, and the last one.
+    /// Navigator commands computed.
     pub nav_commands: u32,
     /// The navigator's last command.
     pub nav_command: Command,
 }
 
+/// The scale pipeline's sensors in [`Summary::scale_counts`] and the names
+/// of their tallies.
+pub const SCALE_SENSORS: [(SensorKind, &str); 4] = [
+    (SensorKind::Wheel, "scale.wheel_counts"),
+    (SensorKind::Flow, "scale.flow_counts"),
+    (SensorKind::Camera, "scale.camera_counts"),
+    (SensorKind::Imu, "scale.imu_counts"),
+];
+
 /// The navigator's route over the sample's drive (the office's first leg):
 /// metres in the start pose's frame.
 pub const NAV_ROUTE: [Point; 2] = [[3.0, 0.0], [6.0, 0.3]];
 
-/// Runs the loop over `data`, every call through `probe`.
-pub fn run(data: &[u8], probe: &mut impl Probe) -> Result<Summary, RunError> {
-    let (header, records) = open(data).map_err(RunError::Format)?;
-    let cfg = config(&header)?;
-    let mut ekf = EgoEkf::new(cfg.filter).map_err(|_| RunError::Config("filter"))?;
-    let mut odometry = DiffDriveOdometry::new(cfg.odometry);
-    let mut scale: ScalePipeline<TRAJECTORY> =
-        ScalePipeline::new(cfg.scale).map_err(|_| RunError::Config("scale pipeline"))?;
-    let mut imu_invalid = SampleCounts::new();
-    let mut counts = PerStream::splat(0u32);
-    let mut scaled_frames = 0u32;
-    let mut nav: Navigator<4> =
-        Navigator::new(NavConfig::default(), Policy::FloorAware, &NAV_ROUTE)
-            .map_err(|_| RunError::Config("navigator"))?;
-    let (mut nav_commands, mut nav_command) = (0u32, Command::default());
-    let (gyro_max, accel_max) = (cfg.filter.imu.gyro_max, cfg.filter.imu.accel_max);
-    for record in records {
-        let record = record.map_err(RunError::Format)?;
-        counts[record.stream()] += 1;
-        match record {
-            Record::Imu(raw) => match ImuSample::with_range(&raw, gyro_max, accel_max) {
-                Ok(s) => {
-                    let step = probe.measure(Step::Propagate, || ekf.propagate(&s));
-                    if step.is_ok() {
-                        let _ = probe.measure(Step::ScaleImu, || scale.push_imu(&s));
-                    }
-                }
-                Err(r) => imu_invalid.rejected_one(r),
-            },
-            Record::Wheel(ticks) => {
-                let step = probe.measure(Step::Odometry, || odometry.update(ticks));
-                if let Ok(Some(step)) = step {
-                    let _ = probe.measure(Step::ScaleWheel, || scale.push_wheel(&step.delta));
-                    let _ = probe.measure(Step::FuseWheel, || ekf.fuse_wheel(&step.rates));
-                    let command = probe.measure(Step::Navigate, || {
-                        estimate_of(&ekf)
-                            .map(|est| nav.command(&est, None).0)
-                            .ok_or(())
-                    });
-                    if let Ok(c) = command {
-                        nav_commands += 1;
-                        nav_command = c;
-                    }
-                }
-            }
-            Record::Flow(s) => {
-                let _ = probe.measure(Step::ScaleFlow, || scale.push_flow(&s));
-                let _ = probe.measure(Step::FuseFlow, || ekf.fuse_flow(&s));
-            }
-            Record::Camera(m) => {
-                let d = probe.measure(Step::ScaleCamera, || scale.push_camera(&m));
-                if matches!(d, Ok(ref d) if d.scale.is_ok()) {
-                    scaled_frames += 1;
-                }
-                if let Ok(d) = d {
-                    let scale = filter_scale(&d);
-                    let _ = probe.measure(Step::FuseCamera, || ekf.fuse_camera(&m, scale));
-                }
-            }
-        }
-    }
-    Ok(Summary {
-        ekf,
-        odometry,
-        scale,
-        imu_invalid,
-        records: counts,
-        scaled_frames,
-        nav_commands,
-        nav_command,
-    })
+/// The run's navigator and its tallies.
+struct Nav {
+    nav: Navigator<4>,
+    commands: u32,
+    last: Command,
+    processed: u32,
 }
 
-/// What `traction::Estimator` made of the sample's IMU, wheel and flow
-/// records ([`run_estimator`]).
-#[derive(Clone, Debug)]
-pub struct EstimatorRun {
-    /// Samples processed (each `poll` that gave one).
-    pub processed: u32,
-    /// Camera motions of the sample not offered (the estimator takes
-    /// frames, not motions).
-    pub camera_skipped: u32,
-    /// The estimate after the last sample.
-    pub position: Option<Vec3>,
-    /// Its velocity.
-    pub velocity: Option<Vec3>,
-    /// Per-stream counts: (fused, gated, rejected).
-    pub counts: [(u32, u32, u32); 3],
+impl Nav {
+    /// After a processed sample: a wheel update gets a wheel command.
+    fn on<const R: usize, const T: usize, const J: usize, const W: usize, P: Probe>(
+        &mut self,
+        p: &Processed,
+        est: &EstimatorWith<'_, R, T, J, W, P>,
+        m: &mut impl Measure,
+    ) {
+        self.processed += 1;
+        if !matches!(p, Processed::Wheel { outcome: Ok(_), .. }) {
+            return;
+        }
+        let nav = &mut self.nav;
+        let command = m.measure(Step::Navigate, || {
+            est.estimate().map(|e| nav.command(&e, None).0).ok_or(())
+        });
+        if let Ok(c) = command {
+            self.commands += 1;
+            self.last = c;
+        }
+    }
+}
+
+/// Polls `est` (every sample ready, or with `until` every sample up to that
+/// time), each processed sample to the navigator.
+fn drain<const R: usize, const T: usize, const J: usize, const W: usize, P: Probe>(
+    est: &mut EstimatorWith<'_, R, T, J, W, P>,
+    until: Option<Timestamp>,
+    nav: &mut Nav,
+    m: &mut impl Measure,
+) {
+    loop {
+        let polled = m.measure(Step::EstPoll, || {
+            match until {
+                Some(t) => est.poll_until(t),
+                None => est.poll(),
+            }
+            .ok_or(())
+        });
+        match polled {
+            Ok(p) => nav.on(&p, est, m),
+            Err(()) => return,
+        }
+    }
 }
 
 /// Configures `est` in place from the sample's header and feeds it every
-/// IMU, wheel and flow record through `offer` and `poll`, every call
-/// through `probe`; then drains it.
-pub fn run_estimator<const R: usize, const T: usize, const J: usize, const W: usize>(
+/// record of `data`: IMU, wheel and flow through `offer` and `poll`, camera
+/// motions through `process_camera_motion`; every call through `m`.
+pub fn run<const R: usize, const T: usize, const J: usize, const W: usize, P: Probe>(
     data: &[u8],
-    est: &mut EstimatorWith<'_, R, T, J, W>,
-    probe: &mut impl Probe,
-) -> Result<EstimatorRun, RunError> {
+    est: &mut EstimatorWith<'_, R, T, J, W, P>,
+    m: &mut impl Measure,
+) -> Result<Summary, RunError> {
     let (header, records) = open(data).map_err(RunError::Format)?;
-    let config = EstimatorConfig::from_robot(&robot(&header)?).map_err(|e| match e {
-        EstimatorError::Robot(e) => RunError::Robot(e),
-        _ => RunError::Config("estimator"),
-    })?;
-    probe
-        .measure(Step::EstConfigure, || est.configure(&config))
+    let cfg = config(&header)?;
+    m.measure(Step::EstConfigure, || est.configure(&cfg))
         .map_err(|_| RunError::Config("estimator"))?;
-    let mut run = EstimatorRun {
+    let mut nav = Nav {
+        nav: Navigator::new(NavConfig::default(), Policy::FloorAware, &NAV_ROUTE)
+            .map_err(|_| RunError::Config("navigator"))?,
+        commands: 0,
+        last: Command::default(),
         processed: 0,
-        camera_skipped: 0,
-        position: None,
-        velocity: None,
-        counts: [(0, 0, 0); 3],
     };
+    let mut records_of = PerStream::splat(0u32);
+    let mut scaled_frames = 0u32;
     for record in records {
         let record = record.map_err(RunError::Format)?;
+        records_of[record.stream()] += 1;
         let event = match record {
             Record::Imu(raw) => Event::Imu(raw),
             Record::Wheel(ticks) => Event::Wheel(ticks),
             Record::Flow(s) => Event::Flow(s),
-            Record::Camera(_) => {
-                run.camera_skipped += 1;
+            Record::Camera(motion) => {
+                // The samples up to the pair's end first, so that each
+                // wheel update reaches the navigator.
+                drain(est, Some(motion.t1()), &mut nav, m);
+                let d = m.measure(Step::EstCameraMotion, || est.process_camera_motion(&motion));
+                if matches!(d, Ok(ref d) if d.scale.is_ok()) {
+                    scaled_frames += 1;
+                }
                 continue;
             }
         };
-        let _ = probe.measure(Step::EstOffer, || {
+        let _ = m.measure(Step::EstOffer, || {
             est.offer(event);
             Ok::<(), ()>(())
         });
-        run.processed += drain(est, probe);
+        drain(est, None, &mut nav, m);
     }
     est.finish();
-    run.processed += drain(est, probe);
-    let e = est.estimate();
-    run.position = e.map(|e| e.p_wb);
-    run.velocity = e.map(|e| e.v_b);
-    let c = est.counts();
-    for (slot, s) in run
-        .counts
-        .iter_mut()
-        .zip([Stream::Imu, Stream::Wheel, Stream::Flow])
-    {
-        let s = &c[s];
-        *slot = (s.fused(), s.gated(), s.rejected_total());
-    }
-    Ok(run)
-}
-
-/// Polls `est` until it has nothing ready; gives the samples processed.
-fn drain<const R: usize, const T: usize, const J: usize, const W: usize>(
-    est: &mut EstimatorWith<'_, R, T, J, W>,
-    probe: &mut impl Probe,
-) -> u32 {
-    let mut n = 0;
-    while probe
-        .measure(Step::EstPoll, || est.poll().ok_or(()))
-        .is_ok()
-    {
-        n += 1;
-    }
-    n
-}
-
-impl EstimatorRun {
-    /// Every printed quantity: `(name, values)`.
-    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
-        f(
-            "estimator.samples",
-            &[Value::N(self.processed), Value::N(self.camera_skipped)],
-        );
-        let v3 = |v: Option<Vec3>| v.map(|v| [Value::F(v.x), Value::F(v.y), Value::F(v.z)]);
-        f(
-            "estimator.position",
-            &v3(self.position).unwrap_or([Value::N(0); 3]),
-        );
-        f(
-            "estimator.velocity",
-            &v3(self.velocity).unwrap_or([Value::N(0); 3]),
-        );
-        for (name, (a, b, c)) in [
-            "estimator.imu_counts",
-            "estimator.wheel_counts",
-            "estimator.flow_counts",
-        ]
-        .iter()
-        .zip(self.counts)
-        {
-            f(name, &[Value::N(a), Value::N(b), Value::N(c)]);
-        }
-    }
-
-    /// Writes one line `result NAME V...` per quantity.
-    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
-        write_results(out, |f| self.for_each(f))
-    }
+    drain(est, None, &mut nav, m);
+    let scale = est.scale();
+    Ok(Summary {
+        ekf: est.ekf().clone(),
+        odometry: *est.odometry(),
+        running: scale.running_scale(),
+        body_pose: scale.body_pose(),
+        scale_counts: SCALE_SENSORS.map(|(kind, _)| scale.counts(kind)),
+        estimate: est.estimate(),
+        counts: est.counts(),
+        records: records_of,
+        processed: nav.processed,
+        scaled_frames,
+        nav_commands: nav.commands,
+        nav_command: nav.last,
+    })
 }
 
 /// What the camera path made of the embedded frames.
@@ -470,21 +433,32 @@ impl EstimatorRun {
 pub struct FrontEndRun {
     /// Frames processed.
     pub frames: u32,
-    /// Camera motions measured.
-    pub motions: u32,
-    /// The last camera motion.
-    pub last: Option<CameraMotion>,
-    /// The front end's frame tallies.
+    /// Frame pairs that gave a scale decision.
+    pub pairs: u32,
+    /// The last pair's statistics (tracked, inliers, RMS error).
+    pub last: Option<traction::frontend::FrameStats>,
+    /// The last pair's camera baseline `|T|` (over the plane distance).
+    pub baseline: Option<f32>,
+    /// The camera stream's tallies.
     pub counts: SampleCounts,
 }
 
-/// Runs traction's camera path (`traction::frontend`) over the embedded
-/// frames, in the caller's `buffers`, every frame through `probe`.
-pub fn run_frontend(
+/// Configures `est` again, fits the camera path in the caller's `buffers`
+/// and runs the embedded frames through `process_camera`, every call
+/// through `m`.
+pub fn run_frontend<
+    'b,
+    const R: usize,
+    const T: usize,
+    const J: usize,
+    const W: usize,
+    P: Probe,
+>(
     frame_data: &[u8],
     header: &Header,
-    buffers: FrontEndBuffers<'_>,
-    probe: &mut impl Probe,
+    est: &mut EstimatorWith<'b, R, T, J, W, P>,
+    buffers: FrontEndBuffers<'b>,
+    m: &mut impl Measure,
 ) -> Result<FrontEndRun, RunError> {
     let (h, frames) =
         frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
@@ -492,25 +466,29 @@ pub fn run_frontend(
     let k = PinholeIntrinsics::new(fu, fv, cu, cv).map_err(|_| RunError::Config("intrinsics"))?;
     let mount = Extrinsics::from_row_major(&header.camera_t_bs)
         .map_err(|_| RunError::Config("camera T_BS"))?;
-    let config = FrontEndConfig::new(h.width, h.height, k, mount);
-    let mut frontend =
-        FrontEnd::new(config, buffers).map_err(|_| RunError::Config("front-end buffers"))?;
+    let cfg = config(header)?;
+    m.measure(Step::EstConfigure, || est.configure(&cfg))
+        .map_err(|_| RunError::Config("estimator"))?;
+    est.fit_frontend(FrontEndConfig::new(h.width, h.height, k, mount), buffers)
+        .map_err(|_| RunError::Config("front-end buffers"))?;
     let mut run = FrontEndRun {
         frames: 0,
-        motions: 0,
+        pairs: 0,
         last: None,
+        baseline: None,
         counts: SampleCounts::new(),
     };
     for (t, pixels) in frames {
         let view = ImageView::new(pixels, h.width, h.height, h.width)
             .map_err(|_| RunError::Format(FormatError::Truncated))?;
         run.frames += 1;
-        if let Ok(Some(m)) = probe.measure(Step::FrontEnd, || frontend.process(t, &view)) {
-            run.motions += 1;
-            run.last = Some(m);
+        if let Ok(Some(d)) = m.measure(Step::EstCamera, || est.process_camera(t, &view)) {
+            run.pairs += 1;
+            run.baseline = Some(d.baseline);
         }
     }
-    run.counts = *frontend.counts();
+    run.last = est.frontend().and_then(|f| f.last_stats());
+    run.counts = est.counts()[Stream::Camera];
     Ok(run)
 }
 
@@ -519,7 +497,7 @@ impl FrontEndRun {
     pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
         f(
             "frontend.frames",
-            &[Value::N(self.frames), Value::N(self.motions)],
+            &[Value::N(self.frames), Value::N(self.pairs)],
         );
         f(
             "frontend.counts",
@@ -529,23 +507,20 @@ impl FrontEndRun {
             ],
         );
         match self.last {
-            Some(m) => {
-                let t = m.t_over_d();
-                f(
-                    "frontend.t_over_d",
-                    &[Value::F(t.x), Value::F(t.y), Value::F(t.z)],
-                );
-                let q = traction::vslam_core::geometry::Quat::from_rotation_matrix(m.r());
-                f(
-                    "frontend.rotation_wxyz",
-                    &[Value::F(q.w), Value::F(q.i), Value::F(q.j), Value::F(q.k)],
-                );
-                f(
-                    "frontend.inliers",
-                    &[Value::N(u32::from(m.inliers())), Value::F(m.residual_px())],
-                );
-            }
-            None => f("frontend.t_over_d", &[]),
+            Some(s) => f(
+                "frontend.last_pair",
+                &[
+                    Value::N(u32::from(s.tracked)),
+                    Value::N(u32::from(s.inliers)),
+                    Value::F(s.rms_px),
+                    Value::N(u32::from(s.pure_rotation)),
+                ],
+            ),
+            None => f("frontend.last_pair", &[]),
+        }
+        match self.baseline {
+            Some(b) => f("frontend.baseline", &[Value::F(b)]),
+            None => f("frontend.baseline", &[]),
         }
     }
 
@@ -573,7 +548,7 @@ pub const FLOOR_CLASSES: usize = traction::ego_ekf::surface::floor_model::CLASSE
 pub fn run_segment(
     frame_data: &[u8],
     map: &mut [u8],
-    probe: &mut impl Probe,
+    m: &mut impl Measure,
 ) -> Result<SegmentRun, RunError> {
     use traction::ego_ekf::surface::FloorModel;
     use traction::vslam_core::segment::Segmenter;
@@ -591,11 +566,10 @@ pub fn run_segment(
     for (_, pixels) in frames {
         let view = ImageView::new(pixels, h.width, h.height, h.width)
             .map_err(|_| RunError::Format(FormatError::Truncated))?;
-        probe
-            .measure(Step::Segment, || {
-                model.segment(&view, &mut *map).map(|_| ())
-            })
-            .map_err(|_| RunError::Config("segmentation map buffer"))?;
+        m.measure(Step::Segment, || {
+            model.segment(&view, &mut *map).map(|_| ())
+        })
+        .map_err(|_| RunError::Config("segmentation map buffer"))?;
         run.maps += 1;
         for &c in map.get(..cells).unwrap_or(&[]) {
             if let Some(n) = run.classes.get_mut(usize::from(c)) {
@@ -689,7 +663,17 @@ impl Summary {
         f("ekf.accel_bias", &v3(e.accel_bias()));
         f("ekf.gyro_bias", &v3(e.gyro_bias()));
         f("ekf.position_std", &v3(e.position_std()));
-        match self.scale.running_scale() {
+        match self.estimate {
+            Some(est) => {
+                f("estimator.position", &v3(est.p_wb));
+                f("estimator.velocity", &v3(est.v_b));
+            }
+            None => {
+                f("estimator.position", &[]);
+                f("estimator.velocity", &[]);
+            }
+        }
+        match self.running {
             Some(s) => f(
                 "scale.running",
                 &[
@@ -700,7 +684,7 @@ impl Summary {
             ),
             None => f("scale.running", &[]),
         }
-        let b = self.scale.body_pose();
+        let b = &self.body_pose;
         f("scale.body_position", &v3(b.translation.vector));
         let bq = b.rotation;
         f(
@@ -715,13 +699,7 @@ impl Summary {
         f("scale.scaled_frames", &[Value::N(self.scaled_frames)]);
         self.each_count(&mut |name, c| f(name, &counts(c)));
         f("records", &self.records.as_array().map(Value::N));
-        f(
-            "imu.invalid",
-            &[
-                Value::N(self.imu_invalid.rejected(Reject::Saturated)),
-                Value::N(self.imu_invalid.rejected_total()),
-            ],
-        );
+        f("estimator.processed", &[Value::N(self.processed)]);
     }
 
     /// Every tally of the run: `(name, counts)`.
@@ -733,15 +711,18 @@ impl Summary {
         f("ekf.zupt_counts", e.zupt_counts());
         f("ekf.floor_counts", e.floor_counts());
         f("ekf.camera_counts", e.camera_counts());
-        for (name, kind) in [
-            ("scale.wheel_counts", SensorKind::Wheel),
-            ("scale.flow_counts", SensorKind::Flow),
-            ("scale.camera_counts", SensorKind::Camera),
-            ("scale.imu_counts", SensorKind::Imu),
-        ] {
-            f(name, &self.scale.counts(kind));
+        for ((_, name), c) in SCALE_SENSORS.iter().zip(self.scale_counts.iter()) {
+            f(name, c);
         }
         f("odometry.counts", self.odometry.counts());
+        for (stream, name) in [
+            (Stream::Imu, "estimator.imu_counts"),
+            (Stream::Wheel, "estimator.wheel_counts"),
+            (Stream::Flow, "estimator.flow_counts"),
+            (Stream::Camera, "estimator.camera_counts"),
+        ] {
+            f(name, &self.counts[stream]);
+        }
     }
 
     /// Writes one line `counts NAME fused F, gated G, rejected: REASON N, ...`

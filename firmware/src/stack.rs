@@ -11,6 +11,8 @@
 
 /// Bytes painted below the stack pointer; deeper use is reported as "at least".
 pub const DEPTH: usize = 48 * 1024;
+/// Bytes painted below a front-end call (its pyramids and LK on the stack).
+pub const FRONTEND_PAINT: usize = 160 * 1024;
 /// Stack limit of one `traction::Estimator` call (issue 21: 16 KB);
 /// `FIRMWARE_ESTIMATOR_STACK_LIMIT=<bytes>` at build time sets another (a
 /// small one shows the check firing).
