@@ -289,9 +289,10 @@ impl TrackScale {
             && p[2] > 0.0
             && p[1] * p[1] < p[0] * p[2];
         if ok {
-            let a = x[0].clamp(a_min, a_max);
+            // max/min rather than clamp: no panic whatever the bounds.
+            let a = x[0].max(a_min).min(a_max);
             let e_max = a * c.max_offset;
-            self.x = [a, x[1].clamp(-e_max, e_max)];
+            self.x = [a, x[1].max(-e_max).min(e_max)];
             self.p = p;
             self.updates = self.updates.saturating_add(1);
         }

@@ -76,3 +76,24 @@ fn straight_runs_keep_the_gain_and_bounds_hold() {
     assert!((e.chi - 4.0).abs() < 1e-3, "{e:?}");
     assert!(e.gyro_offset.abs() <= 0.05 + 1e-6, "{e:?}");
 }
+
+/// Degenerate geometry (no track, zero radii) and extreme rates neither
+/// panic nor update; the rates it would fuse stay finite or unchanged.
+#[test]
+fn degenerate_inputs_are_refused_without_panic() {
+    let mut skid = TrackScale::new(SkidConfig::new(0.5, 1.0));
+    let mut x = state(0.0);
+    for k in 0..20u64 {
+        step(&mut skid, &x, k, 0.5, 0.0, 0.3);
+    }
+    assert_eq!(skid.estimate(0.5).updates, 0, "no track");
+    x = state(0.25);
+    x.radius_left = 0.0;
+    skid.observe_imu(&x, &Vec3::new(0.0, 0.0, f32::NAN), 0.01);
+    skid.observe_imu(&x, &Vec3::new(0.0, 0.0, 1.0), -1.0);
+    let r = rates(30, f32::MAX, -f32::MAX);
+    skid.observe(&x, &r, r.t(), 1.0);
+    let a = skid.apply(&x, &r);
+    assert!(a.left().is_finite() && a.right().is_finite());
+    assert!(skid.gain().is_finite() && skid.gain() > 0.0);
+}
