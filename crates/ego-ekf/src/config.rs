@@ -5,11 +5,12 @@ use core::fmt;
 
 use vslam_core::geometry::Extrinsics;
 pub use vslam_core::robot::ImuNoise;
-use vslam_core::robot::{FlowDescription, RobotDescription, RobotError};
+use vslam_core::robot::{FlowDescription, RobotDescription, RobotError, Steering};
 use vslam_core::sensors::{FlowOptics, FlowOpticsError};
 
 use crate::grip::GripParams;
 use crate::state::{Quat, Vec3};
+use crate::wheel::skid::SkidConfig;
 
 /// The robot's mechanical prior: where the wheels touch the floor seen from
 /// the IMU, how the IMU is turned in the chassis, the wheel radii, and how
@@ -335,6 +336,9 @@ pub struct WheelConfig {
     /// re-examines its own velocity ([`crate::recovery`]; 0: never);
     /// re-examined again every as many gated updates while the run lasts.
     pub reexamine_after_gated: u16,
+    /// A skid steer's effective track, learned online
+    /// ([`crate::wheel::skid`]); `None` for a differential drive.
+    pub skid: Option<SkidConfig>,
 }
 
 impl Default for WheelConfig {
@@ -351,6 +355,7 @@ impl WheelConfig {
         max_dt_ns: 200_000_000,
         max_age_ns: 50_000_000,
         reexamine_after_gated: 25,
+        skid: None,
     };
 }
 
@@ -658,7 +663,9 @@ impl FilterConfig {
 
     /// The filter's configuration for a described robot: its IMU noise, its
     /// robot prior ([`RobotPrior::from_robot`]) and its flow sensor
-    /// ([`FlowConfig::from_robot`]); every other setting of
+    /// ([`FlowConfig::from_robot`]); a skid steer's effective track learned
+    /// online ([`crate::wheel::skid::SkidConfig::new`] with the description's
+    /// track and `track_factor`); every other setting of
     /// [`FilterConfig::default`]. Refuses an invalid description.
     pub fn from_robot(robot: &RobotDescription) -> Result<Self, RobotError> {
         robot.validate()?;
@@ -677,6 +684,16 @@ impl FilterConfig {
                 .camera
                 .as_ref()
                 .map(|c| CameraConfig::from_mounts(&robot.imu.mount, c)),
+            wheel: WheelConfig {
+                skid: match robot.wheels.steering {
+                    Steering::Skid => Some(SkidConfig::new(
+                        robot.wheels.track,
+                        robot.wheels.track_factor,
+                    )),
+                    Steering::Differential => None,
+                },
+                ..WheelConfig::DEFAULT
+            },
             ..FilterConfig::default()
         })
     }
@@ -790,6 +807,9 @@ impl FilterConfig {
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
         let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
+        if self.wheel.skid.is_some_and(|s| !s.is_valid()) {
+            return Err(ConfigError::BadNoise);
+        }
         if !noise
             .iter()
             .chain(flow_noise.iter())

@@ -289,6 +289,7 @@ impl EgoEkf {
             config.zupt.max_wheel_rate,
         )
         .with_gyro_scale(config.imu.estimate_gyro_scale)
+        .with_skid(config.wheel.skid)
     }
 
     const fn flow_fusion(config: &FilterConfig) -> FlowFusion {
@@ -401,6 +402,7 @@ impl EgoEkf {
         self.imu_counts.record(outcome.map(|_| ()));
         if let Ok(step) = outcome {
             self.last_step = Some(step);
+            self.wheel.observe_imu(&self.x, sample.gyro(), step.dt);
         }
         debug_assert!(covariance::looks_valid(&self.p));
         outcome

@@ -260,6 +260,7 @@ pub fn log_stats(name: &str, ds: &Dataset, r: &ReplayOutput) -> Value {
             "accel_bias": f["accel_bias"],
             "wheel_radii": f["wheel_radii"],
             "wheel_radius_std": f["wheel_radius_std"],
+            "track_factor": f["track_factor"],
         },
         "forward_noise": learned.map(|n| json!({
             "multiplier": n.multiplier, "learned_std": n.learned_std, "filter_std": n.filter_std,

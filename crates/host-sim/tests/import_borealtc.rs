@@ -62,7 +62,9 @@ fn the_excerpt_replays_with_wheel_rates_and_its_terrain() {
     assert!((first[1] - v[0].1 / 0.13).abs() < 1e-6 && (first[2] - v[0].2 / 0.13).abs() < 1e-6);
     let yaml = std::fs::read_to_string(d.join("ds/mav0/wheel0/sensor.yaml")).unwrap();
     assert!(
-        yaml.contains("wheel_base: 0.555") && yaml.contains("track_factor: 1.8018"),
+        yaml.contains("wheel_base: 0.555")
+            && yaml.contains("track_factor: 1.8018")
+            && yaml.contains("steering: skid"),
         "{yaml}"
     );
     assert!(!yaml.contains("ticks_per_revolution"), "{yaml}");

@@ -1,8 +1,9 @@
 //! The README's "Real data" commands on the committed excerpts
 //! (`data/real/optiodom`: the first 20 s of an OptiOdom square run, MIT;
-//! `data/real/borealtc/SNOW`: the first 10 s of a BorealTC snow sequence,
-//! CC0), pinned to the values they measured: `calibrate`, `replay --wheels`,
-//! `terrain-stats` and report.json `aids`.
+//! `data/real/borealtc/SNOW` and `ICE`: the first 10 s of a BorealTC snow
+//! sequence and the first 20 s of an ice one, CC0), pinned to the values
+//! they measured: `calibrate`, `replay --wheels`, `terrain-stats`, report.json
+//! `aids` and the skid steer's learned track factor.
 
 mod common;
 use common::host_sim;
@@ -182,10 +183,15 @@ fn terrain_stats_and_aids_on_the_borealtc_excerpt() {
     let n = &l["forward_noise"];
     assert!((num(&n["multiplier"]) - 4.0).abs() < 1e-9, "{n}");
     assert!((num(&n["filter_std"]) - 0.014).abs() < 0.001, "{n}");
-    // What the filter learned: radii near the nominal 0.13 m.
+    // What the filter learned: radii near the nominal 0.13 m; the skid
+    // steer's track factor (measured 2.119, std 0.384, 56 updates: the
+    // wheels turn, the body hardly does) above the nominal 1.80.
     for r in l["learned"]["wheel_radii"].as_array().unwrap() {
         assert!((num(r) - 0.13).abs() < 0.002, "{r}");
     }
+    let chi = &l["learned"]["track_factor"];
+    assert!((num(&chi["chi"]) - 2.119).abs() < 0.01, "{chi}");
+    assert!((num(&chi["chi_std"]) - 0.384).abs() < 0.01, "{chi}");
 
     // report.json of a plain replay carries the same aid statistics.
     ok(host_sim()
@@ -207,4 +213,66 @@ fn terrain_stats_and_aids_on_the_borealtc_excerpt() {
         records >= 60,
         "65 wheel rows, the first few before the filter runs"
     );
+}
+
+/// The ice excerpt (the Husky turning in place): described as a skid steer,
+/// the filter learns the track factor (measured 1.394, std 0.096, from 125
+/// wheel samples) and the gyroscope's z bias stays a gyro's (measured 2.3
+/// mrad/s); described as a differential drive with the same nominal
+/// effective track, the bias takes up the skid (measured 38.0 mrad/s).
+#[test]
+fn the_skid_steer_learns_its_track_on_the_ice_excerpt() {
+    let d = tmp("ice");
+    ok(host_sim()
+        .args(["import", "borealtc"])
+        .arg(real("borealtc/ICE/imu_06.csv"))
+        .arg(real("borealtc/ICE/pro_06.csv"))
+        .arg("--out")
+        .arg(d.join("skid/ICE_06"))
+        .output()
+        .unwrap());
+    let yaml = d.join("skid/ICE_06/mav0/wheel0/sensor.yaml");
+    let text = std::fs::read_to_string(&yaml).unwrap();
+    assert!(text.contains("steering: skid"), "{text}");
+    // The same log described as a differential drive.
+    let plain = d.join("differential/ICE_06");
+    std::fs::create_dir_all(plain.join("mav0/wheel0")).unwrap();
+    for f in [
+        "labels.yaml",
+        "mav0/imu0/data.csv",
+        "mav0/imu0/sensor.yaml",
+        "mav0/wheel0/data.csv",
+    ] {
+        let to = plain.join(f);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(d.join("skid/ICE_06").join(f), to).unwrap();
+    }
+    std::fs::write(
+        plain.join("mav0/wheel0/sensor.yaml"),
+        text.replace("steering: skid\n", ""),
+    )
+    .unwrap();
+    let stats = |ds: &Path, name: &str| {
+        ok(host_sim()
+            .arg("terrain-stats")
+            .arg(ds)
+            .arg("--json")
+            .arg(d.join(name))
+            .output()
+            .unwrap());
+        json(&d.join(name))[0].clone()
+    };
+    let num = |v: &serde_json::Value| v.as_f64().unwrap();
+    let skid = stats(&d.join("skid/ICE_06"), "skid.json");
+    let chi = &skid["learned"]["track_factor"];
+    assert!((num(&chi["chi"]) - 1.394).abs() < 0.01, "{chi}");
+    assert!((num(&chi["chi_std"]) - 0.096).abs() < 0.005, "{chi}");
+    assert_eq!(chi["updates"], 125, "{chi}");
+    let bias_z = |l: &serde_json::Value| num(&l["learned"]["gyro_bias"][2]);
+    assert!((bias_z(&skid) - 0.0023).abs() < 0.001, "{skid}");
+    assert_eq!(skid["aids"]["wheel"]["gated"], 0, "{skid}");
+
+    let diff = stats(&plain, "differential.json");
+    assert!(diff["learned"]["track_factor"].is_null(), "{diff}");
+    assert!((bias_z(&diff) - 0.0380).abs() < 0.001, "{diff}");
 }

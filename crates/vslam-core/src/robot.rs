@@ -17,7 +17,9 @@
 //!
 //! ```
 //! use vslam_core::geometry::{Extrinsics, Rot3, Vec3};
-//! use vslam_core::robot::{ImuDescription, ImuNoise, RobotDescription, RobotError, Wheels};
+//! use vslam_core::robot::{
+//!     ImuDescription, ImuNoise, RobotDescription, RobotError, Steering, Wheels,
+//! };
 //!
 //! let robot = RobotDescription {
 //!     wheels: Wheels {
@@ -25,6 +27,7 @@
 //!         radius_right: 0.05,
 //!         track: 0.30,
 //!         track_factor: 1.0,
+//!         steering: Steering::Differential,
 //!         counts_per_revolution: 4096,
 //!         max_rim_speed: 2.0,
 //!         path_relative_std: 0.02,
@@ -83,6 +86,33 @@ impl ImuNoise {
     };
 }
 
+/// How the robot steers with its two sides' wheels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Steering {
+    /// A differential drive: two wheels that roll without scrubbing; the
+    /// turn rate from the wheel speeds over the track holds on any floor.
+    #[default]
+    Differential,
+    /// A skid steer (four or more wheels or tracks, as the Clearpath
+    /// Husky): the wheels scrub sideways in a turn, so the robot turns as if
+    /// its wheels were further apart than they are, by a factor that
+    /// changes with the floor (Mandow et al., "Experimental kinematics for
+    /// wheeled skid-steer mobile robots", IROS 2007: the expansion factor
+    /// `chi`). [`Wheels::track_factor`] is its nominal value; the estimator
+    /// learns the floor's.
+    Skid,
+}
+
+impl Steering {
+    /// Its name in a robot description file (`differential`, `skid`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Steering::Differential => "differential",
+            Steering::Skid => "skid",
+        }
+    }
+}
+
 /// The drive wheels of a differential-drive (or skid-steer) robot.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wheels {
@@ -97,6 +127,8 @@ pub struct Wheels {
     /// above 1 for a skid steer whose wheels scrub in a turn (the turn rate
     /// from the wheel speeds is as if the wheels were this much further apart).
     pub track_factor: f32,
+    /// Differential drive or skid steer.
+    pub steering: Steering,
     /// Encoder counts per wheel revolution.
     pub counts_per_revolution: u32,
     /// Fastest possible wheel rim speed, m/s; faster steps are glitches.
@@ -349,6 +381,7 @@ impl RobotDescription {
                 radius_right: 0.035,
                 track: 0.23,
                 track_factor: 1.0,
+                steering: Steering::Differential,
                 counts_per_revolution: 16_384,
                 max_rim_speed: 3.0,
                 path_relative_std: 0.02,

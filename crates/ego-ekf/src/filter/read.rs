@@ -147,6 +147,13 @@ impl EgoEkf {
         [self.std_dev(RAD_L), self.std_dev(RAD_R)]
     }
 
+    /// A skid steer's learned effective track (expansion factor `chi` over
+    /// the physical track; [`crate::wheel::skid`]); `None` for a
+    /// differential drive.
+    pub fn track_estimate(&self) -> Option<crate::wheel::skid::TrackEstimate> {
+        self.wheel.track_estimate(&self.x)
+    }
+
     /// Contact-point standard deviations `[left, right]`, m.
     pub fn contact_std(&self) -> [Vec3; 2] {
         [self.std3(CL), self.std3(CR)]

@@ -29,7 +29,8 @@ use crate::config::RecoveryConfig;
 use crate::grip::GripParams;
 use crate::recovery::{Verdict, WheelWatch};
 use crate::state::{Covariance, NominalState, Vec3};
-use crate::wheel::model::wheel_rows;
+use crate::wheel::model::{DIFFERENTIAL, wheel_rows};
+use crate::wheel::skid::{SkidConfig, TrackEstimate, TrackScale};
 use crate::wheel::update::{WheelUpdate, update};
 
 /// The forward wheel-velocity innovation of one wheel sample: the short
@@ -63,6 +64,7 @@ pub struct WheelFusion {
     max_age_ns: u64,
     watch: WheelWatch,
     gyro_scale: bool,
+    skid: Option<TrackScale>,
 }
 
 impl WheelFusion {
@@ -79,7 +81,35 @@ impl WheelFusion {
             max_age_ns,
             watch: WheelWatch::new(),
             gyro_scale: false,
+            skid: None,
         }
+    }
+
+    /// A skid steer's effective track learned online and applied to the
+    /// wheels' speed difference ([`crate::wheel::skid`]); `None` (the
+    /// default, a differential drive) fuses the wheels as they are.
+    pub const fn with_skid(mut self, skid: Option<SkidConfig>) -> Self {
+        self.skid = match skid {
+            Some(c) => Some(TrackScale::new(c)),
+            None => None,
+        };
+        self
+    }
+
+    /// Gives a skid steer's learner one IMU step: the raw gyroscope rate
+    /// over `dt` seconds ([`TrackScale::observe_imu`]); nothing for a
+    /// differential drive.
+    pub fn observe_imu(&mut self, x: &NominalState, gyro: &Vec3, dt: f32) {
+        if let Some(s) = self.skid.as_mut() {
+            s.observe_imu(x, gyro, dt);
+        }
+    }
+
+    /// The skid steer's learned effective track at the state `x`; `None`
+    /// for a differential drive.
+    pub fn track_estimate(&self, x: &NominalState) -> Option<TrackEstimate> {
+        let b_k = (x.p_br - x.p_bl).norm();
+        self.skid.as_ref().map(|s| s.estimate(b_k))
     }
 
     /// Whether the rows carry their Jacobian on the gyro's scale factor
@@ -220,7 +250,22 @@ impl WheelFusion {
         self.clock.accept(rates.t())?;
         self.stopped = libm::fabsf(rates.left()) < self.stop_rate
             && libm::fabsf(rates.right()) < self.stop_rate;
+        // A skid steer: learn the floor's effective track from this sample,
+        // then fuse the wheels with their difference scaled to it.
+        let scaled;
+        let rates = match self.skid.as_mut() {
+            Some(skid) => {
+                skid.observe(x, rates, now, 1.0 - grip.slip());
+                scaled = skid.apply(x, rates);
+                &scaled
+            }
+            None => rates,
+        };
         let mut rows = wheel_rows(x, gyro, rates, grip);
+        // The scaled difference's noise scales with it.
+        if let (Some(skid), Some(n)) = (self.skid.as_ref(), rows.noise.get_mut(DIFFERENTIAL)) {
+            *n *= skid.gain() * skid.gain();
+        }
         if !self.gyro_scale {
             rows.scale = [0.0; 4];
         }

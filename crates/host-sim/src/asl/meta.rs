@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 use vslam_core::geometry::Extrinsics;
+use vslam_core::robot::Steering;
 
 fn write_file(path: &Path, text: &str) -> Result<(), CliError> {
     std::fs::write(path, text).map_err(|e| CliError::file(path, format!("cannot write: {e}")))
@@ -106,6 +107,9 @@ pub struct WheelMeta {
     /// above 1 for a skid steer, whose turn rate from the wheel speeds is as
     /// if the wheels were this much further apart.
     pub track_factor: f64,
+    /// `steering` (optional, default `differential`): `skid` for a skid
+    /// steer, whose effective track the estimator learns per floor.
+    pub steering: Steering,
     /// Wheel type name (for the grip table).
     pub wheel_type: String,
 }
@@ -129,12 +133,21 @@ impl WheelMeta {
             } else {
                 1.0
             },
+            steering: if y.has("steering") {
+                match y.string("steering")?.as_str() {
+                    "differential" => Steering::Differential,
+                    "skid" => Steering::Skid,
+                    _ => return Err(y.bad("steering", "expected `differential` or `skid`")),
+                }
+            } else {
+                Steering::Differential
+            },
             wheel_type: y.string("wheel_type")?,
         })
     }
 
     /// Writes the file (`ticks_per_revolution` when there is one,
-    /// `track_factor` when it is not 1).
+    /// `track_factor` when it is not 1, `steering` for a skid steer).
     pub fn write(&self, path: &Path) -> Result<(), CliError> {
         let mut s = format!(
             "sensor_type: wheel_encoders\ncomment: traction host-sim\nrate_hz: {}\n",
@@ -150,6 +163,9 @@ impl WheelMeta {
         );
         if self.track_factor != 1.0 {
             let _ = writeln!(s, "track_factor: {}", self.track_factor);
+        }
+        if self.steering != Steering::Differential {
+            let _ = writeln!(s, "steering: {}", self.steering.name());
         }
         let _ = writeln!(s, "wheel_type: {}", self.wheel_type);
         write_file(path, &s)

@@ -536,6 +536,7 @@ mod tests {
                     wheel_radius_right: 0.035,
                     wheel_base: 0.23,
                     track_factor: 1.0,
+                    steering: vslam_core::robot::Steering::Differential,
                     wheel_type: "soft_rubber".into(),
                 },
                 wheel,

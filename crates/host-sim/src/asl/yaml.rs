@@ -65,7 +65,8 @@ impl SensorYaml {
             .map(|i| i as u64 + 1)
     }
 
-    fn bad(&self, key: &str, msg: &str) -> CliError {
+    /// The error of a bad value at `key` (its line when known).
+    pub fn bad(&self, key: &str, msg: &str) -> CliError {
         match self.line_of(key) {
             Some(line) => CliError::line(&self.path, line, format!("`{key}`: {msg}")),
             None => CliError::file(&self.path, format!("`{key}`: {msg}")),

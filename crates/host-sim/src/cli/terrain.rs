@@ -19,7 +19,8 @@ use std::path::PathBuf;
                   sequence; the terrain is labels.yaml `terrain`) and prints per log: the wheels' \
                   yaw rate against the gyroscope's (residual mean, std, RMS and the gain of gyro on \
                   wheels), the mean NIS of each aid against its degrees of freedom and the fraction \
-                  gated, what the filter learned (gyro and accelerometer biases, wheel radii), and \
+                  gated, what the filter learned (gyro and accelerometer biases, wheel radii, a skid \
+                  steer's track factor), and \
                   the forward wheel noise the per-floor noise learner settles on; then the terrains \
                   ranked by that noise."
 )]
@@ -92,14 +93,14 @@ pub fn run(a: TerrainStatsArgs) -> Result<(), CliError> {
     outln!(s, "");
     outln!(
         s,
-        "| terrain | log | path EKF / wheels [m] | gyro bias [mrad/s] | accel bias [m/s^2] | wheel radii L, R [m] (std) |"
+        "| terrain | log | path EKF / wheels [m] | gyro bias [mrad/s] | accel bias [m/s^2] | wheel radii L, R [m] (std) | track factor chi (std, updates) | learner's gyro z offset [mrad/s] |"
     );
-    outln!(s, "|---|---|---|---|---|---|");
+    outln!(s, "|---|---|---|---|---|---|---|---|");
     for l in &logs {
         let g = &l["learned"];
         outln!(
             s,
-            "| {} | {} | {} / {} | {} | {} | {}, {} ({}, {}) |",
+            "| {} | {} | {} / {} | {} | {} | {}, {} ({}, {}) | {} ({}, {}) | {} |",
             l["terrain"].as_str().unwrap_or("-"),
             l["log"].as_str().unwrap_or("-"),
             f(&l["ekf_path_m"], 1.0, 1),
@@ -110,6 +111,12 @@ pub fn run(a: TerrainStatsArgs) -> Result<(), CliError> {
             f(&g["wheel_radii"][1], 1.0, 4),
             f(&g["wheel_radius_std"][0], 1.0, 4),
             f(&g["wheel_radius_std"][1], 1.0, 4),
+            f(&g["track_factor"]["chi"], 1.0, 3),
+            f(&g["track_factor"]["chi_std"], 1.0, 3),
+            g["track_factor"]["updates"]
+                .as_u64()
+                .map_or_else(|| "-".into(), |u| u.to_string()),
+            f(&g["track_factor"]["gyro_offset"], 1e3, 2),
         );
     }
     outln!(s, "");
@@ -126,6 +133,8 @@ pub fn run(a: TerrainStatsArgs) -> Result<(), CliError> {
     );
     let yaw = |l: &Value| l["yaw_residual"]["rms"].as_f64();
     outln!(s, "{}", ranking(&logs, yaw, "yaw-rate residual RMS"));
+    let chi = |l: &Value| l["learned"]["track_factor"]["chi"].as_f64();
+    outln!(s, "{}", ranking(&logs, chi, "learned track factor chi"));
     if let Some(p) = &a.json {
         let text = serde_json::to_string_pretty(&Value::Array(logs))
             .map_err(|e| CliError::file(p, e.to_string()))?;

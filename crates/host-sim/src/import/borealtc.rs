@@ -131,6 +131,7 @@ pub fn to_dataset(
         wheel_radius_right: g.wheel_radius,
         wheel_base: g.track,
         track_factor: g.effective_track / g.track,
+        steering: vslam_core::robot::Steering::Skid,
         wheel_type: "soft_rubber".into(),
     };
     let name = |p: &Path| {

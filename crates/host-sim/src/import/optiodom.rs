@@ -269,6 +269,7 @@ pub fn to_dataset(run: &Path, meta: &OptiOdomMeta, rows: &[RunRow]) -> Result<Da
         wheel_radius_right: 0.5 * meta.diameter_right,
         wheel_base: meta.track,
         track_factor: 1.0,
+        steering: vslam_core::robot::Steering::Differential,
         wheel_type: "unknown".into(),
     };
     let mut labels = Labels::default();

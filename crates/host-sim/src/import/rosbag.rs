@@ -467,6 +467,7 @@ fn to_dataset(
                 wheel_radius_right: r,
                 wheel_base: b,
                 track_factor: 1.0,
+                steering: vslam_core::robot::Steering::Differential,
                 wheel_type: "soft_rubber".into(),
             },
             rates,

@@ -177,6 +177,7 @@ pub fn robot_description_with(
                 radius_right: (g.radius_right * k) as f32,
                 track: g.track as f32,
                 track_factor: m.track_factor as f32,
+                steering: m.steering,
                 counts_per_revolution: counts,
                 ..preset.wheels
             }

@@ -71,7 +71,7 @@ pub(super) fn decision_json(t: Timestamp, d: &FrameDecision) -> Value {
 /// The filter's state at the end of the run.
 fn final_json(est: &Estimator<'_>) -> Value {
     let ekf = est.ekf();
-    json!({
+    let mut out = json!({
         "wheel_radii": ekf.wheel_radii(),
         "flow_velocity_resets": ekf.flow_resets(),
         "wheel_lockout": {
@@ -94,7 +94,18 @@ fn final_json(est: &Estimator<'_>) -> Value {
         "accel_bias": [ekf.accel_bias().x, ekf.accel_bias().y, ekf.accel_bias().z],
         "running_scale": est.scale().running_scale().map(|r| r.scale),
         "expected_slip": est.surface().map(slip_json),
-    })
+    });
+    // A skid steer's learned effective track (absent for a differential drive).
+    if let (Some(t), Some(o)) = (ekf.track_estimate(), out.as_object_mut()) {
+        o.insert(
+            "track_factor".into(),
+            json!({
+                "chi": t.chi, "chi_std": t.chi_std, "gyro_offset": t.gyro_offset,
+                "updates": t.updates, "downweighted": t.downweighted,
+            }),
+        );
+    }
+    out
 }
 
 /// The surface model's expected slip per floor (prior plus learned) and

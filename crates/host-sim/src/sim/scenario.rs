@@ -203,6 +203,7 @@ pub fn dataset_of(sc: &Scenario) -> Dataset {
                 wheel_radius_right: sc.robot.nominal_radius,
                 wheel_base: sc.robot.wheel_base,
                 track_factor: 1.0,
+                steering: vslam_core::robot::Steering::Differential,
                 wheel_type: "soft_rubber".into(),
             },
             Vec::new(),
