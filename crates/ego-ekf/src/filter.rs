@@ -15,6 +15,7 @@ use crate::flow::{FlowFused, FlowFusion};
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
+use crate::observability;
 use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
     propagate_nominal, vertical_deviation,
@@ -460,10 +461,16 @@ impl EgoEkf {
             covariance::decouple_clone(&mut self.p);
             self.clone = CloneUse::Due;
         } else if self.still.update_due(&zc) {
-            let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
+            let before = self.x;
+            let constrain = self.config.imu.constrain_heading;
+            let _ = self
+                .zupt
+                .fuse(&mut self.x, &mut self.p, &zc, constrain, sample.t());
+            self.reanchor(&before);
         }
         if let Some(fc) = &self.config.floor {
             let wheels_agree = self.wheel.watch().run().is_empty();
+            let before = self.x;
             let _ = self.floor.step(
                 &mut self.x,
                 &mut self.p,
@@ -472,6 +479,7 @@ impl EgoEkf {
                 sample.t(),
                 wheels_agree,
             );
+            self.reanchor(&before);
         }
         Ok(ImuStep {
             t: sample.t(),
@@ -518,6 +526,25 @@ impl EgoEkf {
             f.with_gyro_scale(&self.x.gyro_scale_jacobian(gyro))
         } else {
             f
+        }
+    }
+
+    /// After an update took the state from `before` to the current one,
+    /// when the heading is constrained: the covariance's heading direction
+    /// moved to the current estimate ([`observability::reanchor`]).
+    fn reanchor(&mut self, before: &NominalState) {
+        if !self.config.imu.constrain_heading {
+            return;
+        }
+        let x = &self.x;
+        if before.p_wb != x.p_wb
+            || before.v_wb != x.v_wb
+            || before.q_wb != x.q_wb
+            || before.gravity != x.gravity
+            || before.clone_p_wb != x.clone_p_wb
+            || before.clone_q_wb != x.clone_q_wb
+        {
+            observability::reanchor(&mut self.p, before, x);
         }
     }
 
@@ -612,6 +639,7 @@ impl EgoEkf {
         let noise_factor = self.distrust.factor_at(rates.t());
         // An infinite factor refuses the forward rows, as the flow's refutation does.
         let refuted = refuted || noise_factor.is_infinite();
+        let before = self.x;
         let mut out = self.wheel.fuse(
             &mut self.x,
             &mut self.p,
@@ -623,6 +651,7 @@ impl EgoEkf {
             refuted,
             noise_factor,
         );
+        self.reanchor(&before);
         if self.distrust.holds_at(rates.t()) {
             self.distrust.record(match &out {
                 Ok(inn) if inn.gated => Err(Reject::Gated),
@@ -702,9 +731,14 @@ impl EgoEkf {
             return Err(self.flow.refuse(sample.t, Reject::NotReady));
         };
         let gyro = self.angular_velocity();
+        let before = self.x;
         let out = self
             .flow
             .fuse(&mut self.x, &mut self.p, &gyro, sample, &config, now);
+        // A reset (not a Kalman update) leaves the velocity uncorrelated.
+        if !out.as_ref().is_ok_and(|f| f.reset) {
+            self.reanchor(&before);
+        }
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }
