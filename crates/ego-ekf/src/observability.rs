@@ -41,8 +41,8 @@
 //! are at the tests), but the simulated runs' fused yaw gets worse on
 //! `office` and `slip`, so it is off by default. `host-sim accuracy --out
 //! DIR` with `ImuConfig::DEFAULT.constrain_heading` set to `true`, against
-//! the same command without (at 5d57df5, 2026-12-03), fused ATE [m] / yaw
-//! RMSE [deg]:
+//! the same command without (at 5d57df5, 2026-12-03), fused ATE in m /
+//! yaw RMSE in deg:
 //!
 //! | run | off (default) | on |
 //! |---|---|---|
