@@ -15,6 +15,7 @@ use crate::flow::{FlowFused, FlowFusion};
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
+use crate::observability;
 use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
     propagate_nominal, vertical_deviation,
@@ -469,10 +470,16 @@ impl EgoEkf {
             covariance::decouple_clone(&mut self.p);
             self.clone = CloneUse::Due;
         } else if self.still.update_due(&zc) {
-            let _ = self.zupt.fuse(&mut self.x, &mut self.p, &zc, sample.t());
+            let before = self.before_update();
+            let constrain = self.config.imu.constrain_heading;
+            let _ = self
+                .zupt
+                .fuse(&mut self.x, &mut self.p, &zc, constrain, sample.t());
+            self.reanchor(before.as_ref());
         }
         if let Some(fc) = &self.config.floor {
             let wheels_agree = self.wheel.watch().run().is_empty();
+            let before = self.before_update();
             let _ = self.floor.step(
                 &mut self.x,
                 &mut self.p,
@@ -481,6 +488,7 @@ impl EgoEkf {
                 sample.t(),
                 wheels_agree,
             );
+            self.reanchor(before.as_ref());
         }
         Ok(ImuStep {
             t: sample.t(),
@@ -527,6 +535,32 @@ impl EgoEkf {
             f.with_gyro_scale(&self.x.gyro_scale_jacobian(gyro))
         } else {
             f
+        }
+    }
+
+    /// The state before an update, kept only when the heading is
+    /// constrained (the copy is what [`EgoEkf::reanchor`] needs; without
+    /// the constraint nothing is copied).
+    fn before_update(&self) -> Option<NominalState> {
+        self.config.imu.constrain_heading.then_some(self.x)
+    }
+
+    /// After an update took the state from `before` to the current one,
+    /// when the heading is constrained: the covariance's heading direction
+    /// moved to the current estimate ([`observability::reanchor`]).
+    fn reanchor(&mut self, before: Option<&NominalState>) {
+        let Some(before) = before else {
+            return;
+        };
+        let x = &self.x;
+        if before.p_wb != x.p_wb
+            || before.v_wb != x.v_wb
+            || before.q_wb != x.q_wb
+            || before.gravity != x.gravity
+            || before.clone_p_wb != x.clone_p_wb
+            || before.clone_q_wb != x.clone_q_wb
+        {
+            observability::reanchor(&mut self.p, before, x);
         }
     }
 
@@ -622,6 +656,7 @@ impl EgoEkf {
             self.distrust.factor_at(rates.t()) * weights::std_factor(self.weights.wheel);
         // An infinite factor refuses the forward rows, as the flow's refutation does.
         let refuted = refuted || noise_factor.is_infinite();
+        let before = self.before_update();
         let mut out = self.wheel.fuse(
             &mut self.x,
             &mut self.p,
@@ -633,6 +668,7 @@ impl EgoEkf {
             refuted,
             noise_factor,
         );
+        self.reanchor(before.as_ref());
         if self.distrust.holds_at(rates.t()) {
             self.distrust.record(match &out {
                 Ok(inn) if inn.gated => Err(Reject::Gated),
@@ -713,6 +749,7 @@ impl EgoEkf {
         };
         let gyro = self.angular_velocity();
         let factor = weights::std_factor(self.weights.flow);
+        let before = self.before_update();
         let out = self.flow.fuse(
             &mut self.x,
             &mut self.p,
@@ -722,6 +759,10 @@ impl EgoEkf {
             now,
             factor,
         );
+        // A reset (not a Kalman update) leaves the velocity uncorrelated.
+        if !out.as_ref().is_ok_and(|f| f.reset) {
+            self.reanchor(before.as_ref());
+        }
         debug_assert!(covariance::looks_valid(&self.p));
         out
     }

@@ -9,6 +9,8 @@
 //!
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
+//!   [`observability`]: the heading about gravity kept unobservable after
+//!   updates (optional, `ImuConfig::constrain_heading`);
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
 //!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
@@ -72,6 +74,7 @@ pub mod gap;
 pub mod grip;
 pub mod init;
 mod kernels;
+pub mod observability;
 pub mod propagate;
 pub mod recovery;
 pub mod reference;

@@ -322,3 +322,93 @@ fn fused_filter_with_gyro_scale_is_consistent() {
     let v = o.block("velocity");
     assert!(v.mean >= v.lo && v.mean <= v.hi && v.above as f64 <= 0.2 * v.checkpoints as f64);
 }
+
+/// The first seed: `MC_SEED` from the environment, else 1000.
+fn seed0() -> u64 {
+    std::env::var("MC_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1000)
+}
+
+/// Prints each block's ANEES as the module doc quotes them.
+fn print_summaries(o: &Outcome) {
+    for s in &o.summaries {
+        println!(
+            "{}: ANEES {:.2} in [{:.2}, {:.2}], {}/{} inside",
+            s.name, s.mean, s.lo, s.hi, s.inside, s.checkpoints
+        );
+    }
+}
+
+// The constraints' noise closer to the simulation's exact ones (lateral
+// 0.2 mm/s, zero-velocity 0.5 mm/s), the heading constrained
+// (`ImuConfig::constrain_heading`, `ego_ekf::observability`): the
+// heading, which nothing observes, is where a filter that learns spurious
+// yaw information shows it (module doc). Measured with `MC_RUNS=200
+// MC_SEED=S cargo test -p ego-ekf --release --test fused_consistency --
+// --ignored tight --nocapture`, S = 1000, 2000: yaw ANEES 0.84, 0.91
+// (bounds [0.81, 1.21]), position 3.02, 3.20 ([2.67, 3.35]); unconstrained
+// (the default) yaw 1.12, 1.26 and position 3.33, 3.57 (module doc).
+// Ignored for its run time at 200 runs.
+#[test]
+#[ignore = "a measurement: run with MC_RUNS=200 and MC_SEED (comment above)"]
+fn tight_constraint_noise_keeps_the_constrained_heading_consistent() {
+    let runs = runs();
+    let mut c = config();
+    c.grip = GripParams::new(0.95, 0.005, 0.0002, 10.83, 2.0).unwrap();
+    c.zupt.velocity_std = 0.0005;
+    c.imu.constrain_heading = true;
+    let o = monte_carlo(&c, runs, seed0());
+    print_summaries(&o);
+    check(&o, runs, &["yaw"], true);
+}
+
+// The gyro's scale factor estimated without the camera (issue 24 part 2),
+// the heading constrained or not (`MC_CONSTRAIN=1`). Measured with
+// `MC_RUNS=200 [MC_CONSTRAIN=1] cargo test -p ego-ekf --release --test
+// fused_consistency -- --ignored without_camera --nocapture`:
+// unconstrained yaw ANEES 1.59, gyro scale 1.62, position 4.36 and the
+// covariance not positive definite at 7 checkpoints of 6 runs (the
+// assertion fails); constrained yaw 0.85, gyro scale 0.93, position 2.91, not positive
+// definite at 39 checkpoints of 23 runs. The failing direction is the
+// pose's yaw minus the clone's at a stop: the zero-velocity update holds
+// the two within its attitude noise while their common heading variance,
+// now kept, is about 5e-3 rad^2, a correlation within 1e-6 of one that
+// the f32 Cholesky of the check cannot factor. Asserted: the scale
+// factor and the yaw are not overconfident (constrained: passes;
+// unconstrained: fails).
+#[test]
+#[ignore = "a measurement: run with MC_RUNS=200 (comment above)"]
+fn gyro_scale_without_camera_is_consistent() {
+    let runs = runs();
+    let mut c = config();
+    c.imu.estimate_gyro_scale = true;
+    c.imu.constrain_heading = std::env::var("MC_CONSTRAIN").is_ok_and(|v| v == "1");
+    c.camera = None;
+    let o = monte_carlo(&c, runs, seed0());
+    print_summaries(&o);
+    let mut runs_not_pd: Vec<usize> = o.not_pd.iter().map(|(run, _)| *run).collect();
+    runs_not_pd.dedup();
+    println!(
+        "constrained {}: covariance not positive definite at {} checkpoints of {} runs",
+        c.imu.constrain_heading,
+        o.not_pd.len(),
+        runs_not_pd.len()
+    );
+    // Not overconfident: the time average inside the bounds and at most a
+    // fifth of the checkpoints above the upper one (the constrained yaw is
+    // conservative early on: below the lower bound at 17 of 60).
+    for name in ["yaw", "gyro scale"] {
+        let s = o.block(name);
+        assert!(
+            s.mean >= s.lo && s.mean <= s.hi && s.above as f64 <= 0.2 * s.checkpoints as f64,
+            "{name}: ANEES {:.2} in [{:.2}, {:.2}], {} of {} above",
+            s.mean,
+            s.lo,
+            s.hi,
+            s.above,
+            s.checkpoints
+        );
+    }
+}

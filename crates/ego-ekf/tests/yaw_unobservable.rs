@@ -1,23 +1,21 @@
 //! Absolute yaw is unobservable to the IMU, the wheels and the zero-velocity
 //! update, so no update may shrink its variance: a robot standing still
-//! must not learn its heading. Ignored: it fails today (a known bug; see
-//! `tests/fused_consistency.rs`'s module doc). With a yaw prior of 0.2 rad
-//! the filter's world-yaw standard deviation after 0.96 s standing still is
+//! must not learn its heading. With a yaw prior of 0.2 rad the filter's
+//! world-yaw standard deviation after 0.96 s standing still is
 //! 0.075-0.146 rad on seeds 1000-1005 (cargo test -p ego-ekf --release
-//! --test yaw_unobservable -- --ignored --nocapture); with the IMU mounted
-//! level (rotation prior 1e-6 rad) or the tilt known to 1e-5 rad it is
-//! 0.076-0.185 rad after 1 s (measured with this test so changed). The
-//! wheel updates do it: without them (zero-velocity updates only) the yaw
-//! stays at 0.200 rad; without the zero-velocity updates it still falls
-//! (0.081-0.150 rad). The first wheel update at rest removes a quarter of
-//! the yaw variance. The propagation's velocity-yaw covariance equals its
-//! first-order prediction `-R [a]x e_z dt sigma^2` step by step; the
-//! wheel rows' attitude column `R_rb [v_b]x` is evaluated at the estimated
-//! velocity, which is not zero while the true one is (the start's
-//! velocity error, the integrated accelerometer noise), so the rows see
-//! the yaw where the truth's would not: the linearisation-point
-//! inconsistency that first-estimate or observability-constrained
-//! Jacobians remove (Huang et al. 2010; Hesch et al. 2014).
+//! --test yaw_unobservable -- --include-ignored --nocapture): every
+//! Jacobian is blind to the heading at the estimate it is taken at
+//! (`tests/yaw_nullspace.rs`), but each update moves the estimate, and the
+//! next transition and update, taken at the corrected estimate, see the
+//! heading the covariance kept unobserved (Huang et al. 2010; Hesch et al.
+//! 2014). With the heading constrained
+//! (`ImuConfig::constrain_heading`, `ego_ekf::observability`) it is
+//! 0.169-0.195 rad; the strict test (0.199) stays ignored either way: the
+//! invariant is the information along the whole heading direction, which
+//! also moves position, velocity and gravity (`e_z x p_hat`, `e_z x v_hat`,
+//! `e_z x g_hat`), so the yaw's own variance may fall somewhat while that
+//! is kept, and the transition's position block is first order (its
+//! `e_z x a dt^2 / 2` is left).
 
 mod support;
 
@@ -25,9 +23,9 @@ use ego_ekf::state::Vec3;
 use ego_ekf::{EgoEkf, FilterConfig, GripParams, InitConfig};
 use support::monte_carlo::{draw, yaw_error};
 
-#[test]
-#[ignore = "known bug: the filter learns absolute yaw standing still"]
-fn standing_still_does_not_reveal_the_heading() {
+/// The world-yaw standard deviations after 0.96 s standing still, seeds
+/// 1000-1005, with a yaw prior of 0.2 rad, the heading constrained or not.
+fn standing_still_yaw_stds(constrain_heading: bool) -> Vec<f64> {
     let c = FilterConfig {
         grip: GripParams::new(0.95, 0.005, 0.001, 10.83, 2.0).unwrap(),
         floor: None,
@@ -37,6 +35,8 @@ fn standing_still_does_not_reveal_the_heading() {
         },
         ..FilterConfig::default()
     };
+    let mut c = c;
+    c.imu.constrain_heading = constrain_heading;
     let mut stds = Vec::new();
     for seed in 1000..1006u64 {
         let (mut sim, start) = draw(seed, &c);
@@ -54,6 +54,26 @@ fn standing_still_does_not_reveal_the_heading() {
         let (_, var) = yaw_error(&Vec3::zeros(), &f.state().q_wb, f.covariance());
         stds.push(var.sqrt());
     }
-    println!("world-yaw std after 0.96 s standing still (prior 0.2 rad): {stds:.3?}");
-    assert!(stds.iter().all(|s| *s > 0.199), "{stds:.3?}");
+    stds
+}
+
+#[test]
+#[ignore = "known bug: the filter learns absolute yaw standing still"]
+fn standing_still_does_not_reveal_the_heading() {
+    for constrain in [false, true] {
+        let stds = standing_still_yaw_stds(constrain);
+        println!(
+            "world-yaw std after 0.96 s standing still (prior 0.2 rad), constrained {constrain}: {stds:.3?}"
+        );
+        assert!(stds.iter().all(|s| *s > 0.199), "{stds:.3?}");
+    }
+}
+
+/// The constrained heading keeps most of its prior standing still: above
+/// 0.16 rad of 0.2 on every seed (0.075-0.146 unconstrained).
+#[test]
+fn the_constrained_heading_keeps_most_of_its_prior_standing_still() {
+    let stds = standing_still_yaw_stds(true);
+    println!("world-yaw std after 0.96 s standing still (prior 0.2 rad), constrained: {stds:.3?}");
+    assert!(stds.iter().all(|s| *s > 0.16), "{stds:.3?}");
 }

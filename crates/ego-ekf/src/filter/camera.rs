@@ -78,8 +78,12 @@ impl EgoEkf {
         }
         let out = if self.clone == CloneUse::Frame(motion.t0()) {
             let m = imu_motion(&config, motion.r(), motion.t_over_d(), scale);
-            self.camera
-                .fuse(&mut self.x, &mut self.p, &m, &config, noise_factor, t)
+            let before = self.before_update();
+            let out = self
+                .camera
+                .fuse(&mut self.x, &mut self.p, &m, &config, noise_factor, t);
+            self.reanchor(before.as_ref());
+            out
         } else {
             Err(self.camera.skip_no_clone(t))
         };

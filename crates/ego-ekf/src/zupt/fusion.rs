@@ -6,6 +6,7 @@ use vslam_core::{Reject, SampleCounts, Timestamp};
 
 use crate::aid_status::{AidOutcome, AidStatus, ZuptStatus, diagonal};
 use crate::config::ZuptConfig;
+use crate::observability;
 use crate::state::{Covariance, NominalState};
 use crate::update::gated_update_reporting;
 use crate::zupt::model::zupt_measurement;
@@ -37,15 +38,21 @@ impl ZuptFusion {
     }
 
     /// Makes one zero-velocity update (ungated) at time `t`, counts it and
-    /// keeps its status.
+    /// keeps its status; with `constrain_heading` its rows projected to be
+    /// blind to the heading at the estimate
+    /// ([`observability::project`]).
     pub fn fuse(
         &mut self,
         x: &mut NominalState,
         p: &mut Covariance,
         config: &ZuptConfig,
+        constrain_heading: bool,
         t: Timestamp,
     ) -> Result<(), Reject> {
-        let m = zupt_measurement(x, config);
+        let mut m = zupt_measurement(x, config);
+        if constrain_heading {
+            observability::project(&mut m, x);
+        }
         let (result, s) = gated_update_reporting(x, p, &m, None);
         let outcome = result.map(|_| ());
         self.counts.record(outcome);

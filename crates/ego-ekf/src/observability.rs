@@ -1,0 +1,139 @@
+//! Keeping the heading about gravity unobservable after updates
+//! (the observability-constrained EKF, on when
+//! [`crate::config::ImuConfig::constrain_heading`] is set).
+//!
+//! Rotating the whole world about gravity changes nothing the IMU, the
+//! wheels, the flow, the floor or the camera's frame pairs measure. In the
+//! error state (body-frame attitude error, Solà 2017, sec. 5.3) that is
+//! the direction `N(x)`: `dtheta = R^T e_z`, `dv = e_z x v`,
+//! `dp = e_z x p`, `dg = e_z x g`, the clone's pose the same, zero on the
+//! biases and the robot states. Each of those measurement Jacobians, taken
+//! at the estimate, is blind to `N` there, and the transition taken at an
+//! estimate carries `N` along. But an update moves the estimate: the next
+//! transition and the next update, taken at the corrected estimate, work
+//! with `N` at that estimate, not with the direction the covariance kept
+//! unobserved, and the filter gains spurious information on its absolute
+//! yaw (it learns its heading standing still: `tests/yaw_unobservable.rs`).
+//!
+//! The observability-constrained EKF (Hesch, Kottas, Bowman and
+//! Roumeliotis, "Consistency analysis and improvement of vision-aided
+//! inertial navigation", IEEE T-RO 30(1), 2014, sec. V; Huang, Mourikis
+//! and Roumeliotis, "Observability-based rules for designing consistent
+//! EKF SLAM estimators", IJRR 29(5), 2010) keeps every Jacobian at the
+//! current estimate and changes them as little as possible so that `N`
+//! stays unobservable. Here that is done at each update, so that the
+//! propagation (and its covariance kernels) is unchanged:
+//! - [`reanchor`]: after an update took the estimate from `x_b` to `x_a`,
+//!   `P <- F P F^T` with the zero-length transition
+//!   `F = I + (N(x_a) - G N(x_b)) u^T` (`G` the update's error reset,
+//!   `u` on the attitude columns with `u . N(x_b) = 1`): the nearest map to
+//!   the identity that reads only the attitude and carries the direction
+//!   the update was blind to onto `N(x_a)`. The next transition and
+//!   update, both at `x_a`, are then blind to it as well: it is Hesch et
+//!   al.'s constrained transition (the smallest change of `F` with
+//!   `F N_k = N_k+1`, eqs. 50-52) split off the propagation.
+//! - [`project`]: a measurement whose function is not itself invariant away
+//!   from the truth (the zero-velocity update's `v = 0`: `H N = e_z x v_hat`)
+//!   gets the nearest Jacobian with `H N = 0` (sec. V-B).
+//!
+//! What it measured: the heading becomes consistent
+//! (`tests/fused_consistency.rs`, `tests/yaw_unobservable.rs`: the figures
+//! are at the tests), but the simulated runs' fused yaw gets worse on
+//! `office` and `slip`, so it is off by default. `host-sim accuracy --out
+//! DIR` with `ImuConfig::DEFAULT.constrain_heading` set to `true`, against
+//! the same command without (at 5d57df5, 2026-12-03), fused ATE in m /
+//! yaw RMSE in deg:
+//!
+//! | run | off (default) | on |
+//! |---|---|---|
+//! | office 1-4 | 0.043 0.043 0.040 0.044 / 0.05 0.03 0.04 0.09 | 0.044 0.043 0.040 0.043 / 0.09 0.08 0.07 0.07 |
+//! | slip 1-4 | 0.037 0.036 0.035 0.038 / 0.05 0.04 0.05 0.07 | 0.039 0.037 0.035 0.038 / 0.09 0.08 0.07 0.07 |
+//! | short 1-4 | 0.003 0.003 0.003 0.002 / 0.03 0.03 0.07 0.04 | 0.003 0.003 0.003 0.002 / 0.03 0.02 0.09 0.03 |
+//! | straight 1-4 | 0.007 0.005 0.007 0.006 / 0.05 0.05 0.07 0.03 | 0.005 0.005 0.010 0.005 / 0.01 0.02 0.10 0.03 |
+//!
+//! Goals met on 9 of 16 runs either way (a first-estimate transition,
+//! branch `yawinfo`: 8, straight 3 at 0.013 m). Where it is worse the yaw
+//! error is made in steps and then kept (straight 3: 0.08 deg off and
+//! 0.12 deg on from 7 s on; office 1: -0.15 deg on against -0.08 deg
+//! off after 43 s): with the heading variance kept, corrections move the
+//! yaw more. Why they move it the wrong way is not found yet.
+
+use nalgebra::SVector;
+
+use crate::covariance::RESET_MIN_ANGLE;
+use crate::state::{CP, CTH, Covariance, ErrorState, G, NominalState, P, Quat, TH, V, Vec3};
+use crate::update::Measurement;
+
+/// The heading direction `N(x)` (module doc) as an error-state vector.
+pub fn heading_direction(x: &NominalState) -> ErrorState {
+    let ez = Vec3::z();
+    let mut n = ErrorState::zeros();
+    n.fixed_rows_mut::<3>(P).copy_from(&ez.cross(&x.p_wb));
+    n.fixed_rows_mut::<3>(V).copy_from(&ez.cross(&x.v_wb));
+    n.fixed_rows_mut::<3>(TH)
+        .copy_from(&x.q_wb.inverse_transform_vector(&ez));
+    n.fixed_rows_mut::<3>(G).copy_from(&ez.cross(&x.gravity));
+    n.fixed_rows_mut::<3>(CP)
+        .copy_from(&ez.cross(&x.clone_p_wb));
+    n.fixed_rows_mut::<3>(CTH)
+        .copy_from(&x.clone_q_wb.inverse_transform_vector(&ez));
+    n
+}
+
+/// Moves the heading direction of `p` to `N(after)` after an update took
+/// the state from `before` to `after`: `P <- F P F^T` with the zero-length
+/// transition `F = I + (N_a - G N_b) u^T`, `G` the update's error reset
+/// (`I - [dtheta/2]x` on the rotation blocks, when it was applied) and
+/// `u` the attitude part of `G N_b` over its squared norm, zero elsewhere
+/// (so `F G N_b = N_a`; the nearest such `F` to the identity that reads
+/// only the attitude). The next transition and update, taken at `after`,
+/// are then blind to the direction the covariance kept unobserved. Dense
+/// over `P` (about `3 DIM^2` multiply-adds).
+pub fn reanchor(p: &mut Covariance, before: &NominalState, after: &NominalState) {
+    let mut n_b = heading_direction(before);
+    // The update's error reset `G = I - [dtheta/2]x` on the rotation
+    // blocks (`crate::covariance::reset`, applied when a block turned by
+    // more than `RESET_MIN_ANGLE`) carried the direction to `G N_b`.
+    let turn = |a: &Quat, b: &Quat| (a.inverse() * b).scaled_axis();
+    let d_th = turn(&before.q_wb, &after.q_wb);
+    let d_cth = turn(&before.clone_q_wb, &after.clone_q_wb);
+    let d_rb = turn(&before.q_rb, &after.q_rb);
+    if d_th.amax().max(d_cth.amax()).max(d_rb.amax()) > RESET_MIN_ANGLE {
+        for (block, d) in [(TH, d_th), (CTH, d_cth)] {
+            let u = n_b.fixed_rows::<3>(block).into_owned();
+            n_b.fixed_rows_mut::<3>(block)
+                .copy_from(&(u - (d * 0.5).cross(&u)));
+        }
+    }
+    let d = heading_direction(after) - n_b;
+    let u = n_b.fixed_rows::<3>(TH).into_owned();
+    let uu = u.norm_squared();
+    if !(uu > 0.0 && uu.is_finite()) {
+        return;
+    }
+    let u = u / uu;
+    let b: ErrorState = p.fixed_columns::<3>(TH) * u;
+    let s = u.dot(&b.fixed_rows::<3>(TH));
+    let db = d * b.transpose();
+    *p += db + db.transpose() + d * d.transpose() * s;
+}
+
+/// Makes `m` blind to the heading direction at `x`, the estimate it was
+/// formed at: `H <- H - (H N) u^T`, `u = R^T e_z / |R^T e_z|^2` on the
+/// attitude columns (Hesch et al. 2014, sec. V-B: the nearest `H` with
+/// `H N = 0`). For a measurement whose function is not invariant under a
+/// rotation about gravity away from the truth, such as the zero-velocity
+/// update's `v = 0` (its `H N` is `e_z x v_hat`, zero only when the
+/// estimate stands still): its rows then gain no heading information from
+/// the estimate's error.
+pub fn project<const M: usize>(m: &mut Measurement<M>, x: &NominalState) {
+    let n = heading_direction(x);
+    let u = n.fixed_rows::<3>(TH).into_owned();
+    let uu = u.norm_squared();
+    if !(uu > 0.0 && uu.is_finite()) {
+        return;
+    }
+    let hn: SVector<f32, M> = m.h * n;
+    let mut h_th = m.h.fixed_columns_mut::<3>(TH);
+    h_th -= hn * (u.transpose() / uu);
+}
