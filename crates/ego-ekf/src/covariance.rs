@@ -254,6 +254,36 @@ pub fn clone_pose(p: &mut Covariance, copy_var_position: f32, copy_var_attitude:
     }
 }
 
+/// Keeps the clone at least `min_var_position` / `min_var_attitude` apart
+/// from the pose on each axis: where the variance of the difference
+/// `P_ii + P_cc - 2 P_ic` (pose axis `i`, its clone axis `c`) has fallen
+/// below the minimum, the clone's diagonal gets the rest. Repeated
+/// pose-equals-clone updates (the zero-velocity update while the robot
+/// stands) shrink that difference as `R / n` while the pose's own variance
+/// stays; once it is below `f32`'s resolution of that variance, `P` is no
+/// longer positive definite in `f32`. Adding to a diagonal entry keeps `P`
+/// symmetric positive (semi-)definite; the clone is then known as well as a
+/// fresh copy ([`clone_pose`]) would be.
+pub fn keep_clone_apart(p: &mut Covariance, min_var_position: f32, min_var_attitude: f32) {
+    for k in 0..6 {
+        let (i, c, min) = if k < 3 {
+            (P + k, CP + k, min_var_position)
+        } else {
+            (TH + k - 3, CTH + k - 3, min_var_attitude)
+        };
+        let (Some(&pi), Some(&pc), Some(&x)) = (p.get((i, i)), p.get((c, c)), p.get((i, c))) else {
+            continue;
+        };
+        let apart = pi + pc - 2.0 * x;
+        // NaN compares false: nothing changes.
+        if apart < min
+            && let Some(d) = p.get_mut((c, c))
+        {
+            *d += min - apart;
+        }
+    }
+}
+
 /// Zeroes the clone's covariance with every other state (its rows and
 /// columns outside its own 6x6 block), which stays as it is: `P` stays
 /// positive (semi-)definite, and the clone no longer takes part in

@@ -56,14 +56,23 @@ fn larger(a: f32, b: f32) -> f32 {
 /// positive definite in `f32` whatever the pose's uncertainty.
 fn clone_pose(x: &mut NominalState, p: &mut Covariance) {
     x.clone_pose();
+    let (var_p, var_th) = copy_variances(p);
+    covariance::clone_pose(p, var_p, var_th);
+}
+
+/// The clone's copy variances for the pose's current uncertainty: position
+/// and attitude, each at least its absolute minimum and
+/// [`CLONE_COPY_RELATIVE`] of the block's largest variance.
+fn copy_variances(p: &Covariance) -> (f32, f32) {
     let largest = |start: usize| {
         (start..start + 3)
             .filter_map(|i| p.get((i, i)).copied())
             .fold(0.0f32, larger)
     };
-    let var_p = larger(CLONE_COPY_VAR_POSITION, CLONE_COPY_RELATIVE * largest(P));
-    let var_th = larger(CLONE_COPY_VAR_ATTITUDE, CLONE_COPY_RELATIVE * largest(TH));
-    covariance::clone_pose(p, var_p, var_th);
+    (
+        larger(CLONE_COPY_VAR_POSITION, CLONE_COPY_RELATIVE * largest(P)),
+        larger(CLONE_COPY_VAR_ATTITUDE, CLONE_COPY_RELATIVE * largest(TH)),
+    )
 }
 
 /// One IMU step's output: the bias-corrected sample and what the events
@@ -476,6 +485,9 @@ impl EgoEkf {
                 .zupt
                 .fuse(&mut self.x, &mut self.p, &zc, constrain, sample.t());
             self.reanchor(before.as_ref());
+            // The update tied the pose to the clone: no tighter than a copy.
+            let (var_p, var_th) = copy_variances(&self.p);
+            covariance::keep_clone_apart(&mut self.p, var_p, var_th);
         }
         if let Some(fc) = &self.config.floor {
             let wheels_agree = self.wheel.watch().run().is_empty();

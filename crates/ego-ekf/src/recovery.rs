@@ -143,6 +143,12 @@ impl Bucket {
 /// not. Reports are white noise to a good approximation (the sensor's counts
 /// are quantised and independent); the mean's standard deviation is kept at
 /// or above `floor_std` (the sensor's base noise) all the same.
+///
+/// The mean is the velocity only if the velocity held over the window: when
+/// the older half's mean differs from the newer half's beyond
+/// [`WINDOW_CHANGE_GATE`] (the robot started, stopped or turned inside the
+/// window: a stuck or lifted robot driving on), the older half is stale and
+/// the witness is the newer half alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlowWindow {
     half_ns: u64,
@@ -199,8 +205,9 @@ impl FlowWindow {
             t.nanos_since(b.start)
                 .is_none_or(|d| d <= self.half_ns.saturating_mul(3))
         };
+        let steady = |b: &Bucket| self.same_velocity(b, &current);
         let mut sum = Bucket::new(current.start);
-        for b in [self.previous, Some(current)]
+        for b in [self.previous.filter(steady), Some(current)]
             .iter()
             .flatten()
             .filter(|b| recent(b))
@@ -219,6 +226,27 @@ impl FlowWindow {
             std,
             reports: sum.reports,
         })
+    }
+}
+
+/// The chi-square gate (2 DOF, 99 %) on the difference of the flow window's
+/// two half means beyond which the velocity changed inside the window
+/// ([`FlowWindow`]).
+pub const WINDOW_CHANGE_GATE: f32 = 9.21;
+
+impl FlowWindow {
+    /// Whether bucket `a`'s mean velocity and `b`'s are the same within
+    /// [`WINDOW_CHANGE_GATE`] (each mean's variance at least `floor_std`
+    /// squared); an empty bucket changes nothing.
+    fn same_velocity(&self, a: &Bucket, b: &Bucket) -> bool {
+        if !(a.weight > 0.0 && b.weight > 0.0) {
+            return true;
+        }
+        let floor = self.floor_std * self.floor_std;
+        let var = (1.0 / a.weight).max(floor) + (1.0 / b.weight).max(floor);
+        let d = a.weighted / a.weight - b.weighted / b.weight;
+        // NaN compares false: a non-finite difference keeps the older half out.
+        d.norm_squared() <= WINDOW_CHANGE_GATE * var
     }
 }
 

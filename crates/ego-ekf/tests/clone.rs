@@ -27,8 +27,17 @@ const DECELERATION: f32 = 1.0;
 /// steps and stands (wheel samples every fifth step, consistent with the
 /// IMU). Calls `on_step(filter, position before the step, still)` after
 /// every IMU step.
-fn drive_then_stop(moving: u64, total: u64, mut on_step: impl FnMut(&EgoEkf, Vec3, bool)) {
-    let config = FilterConfig::default();
+fn drive_then_stop(moving: u64, total: u64, on_step: impl FnMut(&EgoEkf, Vec3, bool)) {
+    drive_then_stop_with(FilterConfig::default(), moving, total, on_step);
+}
+
+/// [`drive_then_stop`] with the filter's `config`.
+fn drive_then_stop_with(
+    config: FilterConfig,
+    moving: u64,
+    total: u64,
+    mut on_step: impl FnMut(&EgoEkf, Vec3, bool),
+) {
     let mut f = EgoEkf::new(config).unwrap();
     f.start(&ExplicitStart {
         p_wb: Vec3::new(1.0, -0.5, 0.05),
@@ -98,6 +107,27 @@ fn zero_velocity_updates_hold_the_pose_at_the_clone() {
     // Held within millimetres over 1.4 s of standing (the velocity decays
     // under the updates instead of carrying the pose away at 0.2 m/s).
     assert!((last - stop).norm() < 0.01, "{}", (last - stop).norm());
+}
+
+/// A pose known only to a metre (after a long IMU gap, or a start without a
+/// fix) held still for 20 s: the zero-velocity updates tie the pose to the
+/// clone ever more tightly, yet the whole covariance, the clone's rows
+/// included, stays positive definite in `f32` (the difference of pose and
+/// clone keeps the clone's copy variance).
+#[test]
+fn a_long_stand_keeps_the_whole_covariance_positive_definite() {
+    let mut config = FilterConfig::default();
+    config.init.position_std = 1.0;
+    config.init.yaw_std = 0.3;
+    let (mut still_steps, mut failed) = (0u32, 0u32);
+    drive_then_stop_with(config, 250, 250 + 5_000, |f, _, still| {
+        if still {
+            still_steps += 1;
+            failed += u32::from(!is_positive_definite(f.covariance()));
+        }
+    });
+    assert!(still_steps > 4_000, "{still_steps}");
+    assert_eq!(failed, 0, "of {still_steps} still steps");
 }
 
 #[test]

@@ -60,6 +60,30 @@ fn the_window_averages_recent_reports_only() {
     assert_eq!(f.witness(Timestamp(210_000_000)).unwrap().velocity.x, 0.2);
 }
 
+/// A robot stuck (the flow sees the floor stand still) that drives on at
+/// 0.3 m/s: the window's older half, half still and half moving, is stale,
+/// and the witness is the newer half's 0.3 m/s, not a mean of both.
+#[test]
+fn a_change_of_velocity_leaves_the_older_half_out() {
+    let mut w = FlowWindow::new(250_000_000, 0.01);
+    for k in 0..=110u64 {
+        let v = if k < 100 { 0.0 } else { 0.3 };
+        w.push(Timestamp(k * 10_000_000), Vector2::new(v, 0.0), 0.02);
+    }
+    let m = w.witness(Timestamp(1_100_000_000)).unwrap();
+    assert!((m.velocity.x - 0.3).abs() < 1e-4, "{m:?}");
+    assert!(m.reports < 10, "{m:?}");
+    // A steady velocity keeps both halves.
+    let mut s = FlowWindow::new(250_000_000, 0.01);
+    for k in 0..=110u64 {
+        let v = if k % 2 == 0 { 0.29 } else { 0.31 };
+        s.push(Timestamp(k * 10_000_000), Vector2::new(v, 0.0), 0.02);
+    }
+    let m = s.witness(Timestamp(1_100_000_000)).unwrap();
+    assert!(m.reports > 15, "{m:?}");
+    assert!((m.velocity.x - 0.3).abs() < 0.005, "{m:?}");
+}
+
 #[test]
 fn flow_that_disagrees_with_the_filter_is_the_source() {
     let c = RecoveryConfig::default();

@@ -3,7 +3,8 @@
 //! times, and every invariant checked ([`judge`]):
 //!
 //! - at every IMU step (the replay's [`Health`](crate::replay::Health)):
-//!   the state finite, the covariance symmetric positive definite, each
+//!   the state finite, the covariance symmetric positive definite (the
+//!   pose clone's rows included), each
 //!   stream's count equal to the samples that reached the estimator (every
 //!   sample in exactly one count: fused, gated or rejected with a reason),
 //!   no count going backwards;
@@ -79,9 +80,11 @@ impl ChaosRun {
         self.clusters.iter().filter(|c| !c.no_lockout()).collect()
     }
 
-    /// Whether every check held.
+    /// Whether every check held (the whole covariance, the pose clone's
+    /// rows included, positive definite at every step too).
     pub fn ok(&self) -> bool {
         self.health().ok()
+            && self.health().clone_not_spd == 0
             && self.unexpected().is_empty()
             && self.not_recovered().is_empty()
             && self.lockouts().is_empty()
