@@ -11,6 +11,11 @@
 //!   [`FlowDemandConfig::low_grip`];
 //! - low grip ahead: the floor the surface model anticipates, arriving within
 //!   [`FlowDemandConfig::lookahead_s`], has a grip below `low_grip`;
+//! - a floor change ahead: the surface model anticipates another floor (or a
+//!   threshold strip, a room's edge) arriving within the look-ahead,
+//!   whatever its grip: the wheels' radii and expected slip were learned on
+//!   the floor they leave, and the segmentation's 2 Hz maps and blend reach
+//!   the new floor's grip only after the wheels are on it;
 //! - a remembered slippery place: the adverse-event memory holds at least
 //!   [`FlowDemandConfig::remembered_events`] (decayed) wheel events at the
 //!   robot's position and time slot;
@@ -114,6 +119,9 @@ pub struct SlipCues {
     pub grip_under: Option<f32>,
     /// Grip of the floor anticipated within the look-ahead.
     pub grip_ahead: Option<f32>,
+    /// Another floor (or a threshold strip) is anticipated within the
+    /// look-ahead.
+    pub floor_change_ahead: bool,
     /// Decayed wheel events the adverse memory holds here and now.
     pub remembered_wheel_events: f32,
     /// The last wheel innovation, if one came with this update.
@@ -153,17 +161,20 @@ pub enum Cue {
     Remembered = 2,
     /// Wheels disagreeing with the IMU.
     WheelsVsImu = 3,
+    /// Another floor ahead.
+    FloorChangeAhead = 4,
 }
 
 impl Cue {
     /// How many cues.
-    pub const COUNT: usize = 4;
+    pub const COUNT: usize = 5;
     /// Every cue, in index order.
-    pub const ALL: [Cue; 4] = [
+    pub const ALL: [Cue; 5] = [
         Cue::GripUnder,
         Cue::GripAhead,
         Cue::Remembered,
         Cue::WheelsVsImu,
+        Cue::FloorChangeAhead,
     ];
     /// Short name (reports).
     pub const fn name(self) -> &'static str {
@@ -172,6 +183,7 @@ impl Cue {
             Cue::GripAhead => "grip_ahead",
             Cue::Remembered => "remembered",
             Cue::WheelsVsImu => "wheels_vs_imu",
+            Cue::FloorChangeAhead => "floor_change_ahead",
         }
     }
 }
@@ -226,6 +238,9 @@ impl FlowDemand {
         }
         if low(cues.grip_ahead) {
             return Some(Cue::GripAhead);
+        }
+        if cues.floor_change_ahead {
+            return Some(Cue::FloorChangeAhead);
         }
         if cues.remembered_wheel_events >= c.remembered_events && c.remembered_events > 0.0 {
             return Some(Cue::Remembered);
@@ -296,10 +311,11 @@ impl FlowDemand {
                 cues.grip_under = Some(s.grip_params(t).grip());
             }
             let horizon = Timestamp(t.0.saturating_add(seconds_to_nanos(self.config.lookahead_s)));
-            cues.grip_ahead = state
+            let ahead = state
                 .anticipation
-                .filter(|a| a.arrival.is_some_and(|at| at >= t && at <= horizon))
-                .map(|a| s.table().grip(a.kind, s.wheel()));
+                .filter(|a| a.arrival.is_some_and(|at| at >= t && at <= horizon));
+            cues.grip_ahead = ahead.map(|a| s.table().grip(a.kind, s.wheel()));
+            cues.floor_change_ahead = ahead.is_some();
         }
         let scale = estimator.scale();
         let p = scale.body_pose().translation.vector;
@@ -401,6 +417,13 @@ mod tests {
             ),
             (wheel(0.0, 1e-4, true), Cue::WheelsVsImu),
             (wheel(0.031, 1e-4, false), Cue::WheelsVsImu),
+            (
+                SlipCues {
+                    floor_change_ahead: true,
+                    ..quiet()
+                },
+                Cue::FloorChangeAhead,
+            ),
         ];
         for (cues, cue) in cases {
             let mut d = demand();
@@ -421,6 +444,7 @@ mod tests {
             SlipCues {
                 grip_under: Some(0.9),
                 grip_ahead: Some(0.75),
+                floor_change_ahead: false,
                 remembered_wheel_events: 1.9,
                 wheel: Some(WheelCue {
                     forward: 0.029,
