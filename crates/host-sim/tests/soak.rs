@@ -31,15 +31,15 @@
 //! vslam-core and host-sim are optimised there too) runs the hour as well:
 //! `cargo test -p host-sim --test soak -- --ignored --nocapture`.
 //!
-//! # Result (x86_64, test profile, measured 2026-12-03 at 69cc6e3)
+//! # Result (x86_64, test profile, measured 2026-12-03 at 5e90e33)
 //!
 //! Figures of the code of that commit (`.ci/run` on a fresh clone); the
 //! command above measures the current code.
 //!
-//! 900,000 IMU steps (3600 s, 57 laps) in 9.7 s wall; 3600 checks passed,
+//! 900,000 IMU steps (3600 s, 57 laps) in 12.1 s wall; 3600 checks passed,
 //! the full covariance (pose clone included) positive definite in all.
-//! Resident set 13,012 KiB after 2 laps, 13,028 KiB at the end; estimator
-//! 49,768 bytes. IMU 899,950 fused (50 during initialisation); wheel 180,000
+//! Resident set 13,128 KiB after 2 laps, 13,144 KiB at the end; estimator
+//! 49,984 bytes. IMU 899,950 fused (50 during initialisation); wheel 180,000
 //! seen, 167,390 fused, 12,600 gated, 10 not ready; flow 359,943 seen, 359,888
 //! fused, 35 gated, 20 not ready; 965 zero-velocity updates; floor 33,478
 //! updates, 33,024 fused, 454 gated, 2,520 suspended. Worst standard
