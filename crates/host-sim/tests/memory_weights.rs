@@ -146,24 +146,37 @@ fn the_camera_weight_softens_the_camera_update() {
     assert!(b < 0.5 * a, "camera NIS {a} -> {b}");
 }
 
+/// Replays with `sensor` remembered, checks its frames' `weight_key` is
+/// low, and gives the predicted variance of `aid`'s `row` without and with
+/// the memory.
+fn variance_without_and_with(
+    sensor: SensorKind,
+    name: &str,
+    weight_key: &str,
+    aid: &str,
+    row: &str,
+) -> (f64, f64) {
+    let r = replay_remembering(sensor, name);
+    assert!(mostly_low(&frame_weights(&r, weight_key)));
+    let (a, b) = (
+        innovation_var(&base().report, aid, row),
+        innovation_var(&r, aid, row),
+    );
+    eprintln!("{aid} {row} innovation variance, {name} remembered: {a:.3e} -> {b:.3e}");
+    (a, b)
+}
+
 #[test]
 fn the_wheel_and_flow_weights_soften_their_updates() {
-    let empty = &base().report;
-    let w = replay_remembering(SensorKind::Wheel, "wheel");
-    assert!(mostly_low(&frame_weights(&w, "wheel_weight")));
-    let (a, b) = (
-        innovation_var(empty, "wheel", "forward"),
-        innovation_var(&w, "wheel", "forward"),
+    let (a, b) = variance_without_and_with(
+        SensorKind::Wheel,
+        "wheel",
+        "wheel_weight",
+        "wheel",
+        "forward",
     );
-    eprintln!("wheel forward innovation variance {a:.3e} -> {b:.3e}");
     assert!(b > 2.0 * a, "wheel {a} -> {b}");
-    let f = replay_remembering(SensorKind::Flow, "flow");
-    assert!(mostly_low(&frame_weights(&f, "flow_weight")));
-    let (a, b) = (
-        innovation_var(empty, "flow", "vx"),
-        innovation_var(&f, "flow", "vx"),
-    );
-    eprintln!("flow vx innovation variance {a:.3e} -> {b:.3e}");
+    let (a, b) = variance_without_and_with(SensorKind::Flow, "flow", "flow_weight", "flow", "vx");
     assert!(b > 2.0 * a, "flow {a} -> {b}");
 }
 
