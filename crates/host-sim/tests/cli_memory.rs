@@ -10,7 +10,7 @@ mod common;
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn tmp(name: &str) -> PathBuf {
     common::scratch("host-sim-cli-memory", name)
@@ -18,16 +18,7 @@ fn tmp(name: &str) -> PathBuf {
 
 /// `simulate --scenario slip --duration 12 --seed 1 --memory memory` into `out`.
 fn simulate(out: &Path, memory: &Path) -> (Value, Output) {
-    let o = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args([
-            "simulate",
-            "--scenario",
-            "slip",
-            "--duration",
-            "12",
-            "--seed",
-            "1",
-        ])
+    let o = common::simulate_slip_12s()
         .arg("--out")
         .arg(out)
         .arg("--memory")

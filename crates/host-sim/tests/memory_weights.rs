@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{host_sim, replay, report, scratch, succeed};
+use common::{replay, report, scratch, simulate_slip_12s, succeed};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -39,20 +39,7 @@ fn base() -> &'static Run {
     static RUN: OnceLock<Run> = OnceLock::new();
     RUN.get_or_init(|| {
         let dir = scratch("host-sim-memory-weights", "base");
-        succeed(
-            host_sim()
-                .args([
-                    "simulate",
-                    "--scenario",
-                    "slip",
-                    "--duration",
-                    "12",
-                    "--seed",
-                    "1",
-                    "--out",
-                ])
-                .arg(dir.join("sim")),
-        );
+        succeed(simulate_slip_12s().arg("--out").arg(dir.join("sim")));
         let out = dir.join("empty");
         replay(&dir.join("sim/dataset"), &out, &[]);
         let poses = std::fs::read_to_string(out.join("vslam.tum"))

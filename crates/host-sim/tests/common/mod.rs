@@ -14,6 +14,23 @@ pub fn host_sim() -> Command {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
 }
 
+/// `host-sim simulate --scenario slip --duration 12 --seed 1` (the slip
+/// scenario's first wheel-spin episode at 8-11 s), for the caller to add
+/// `--out` and more.
+pub fn simulate_slip_12s() -> Command {
+    let mut c = host_sim();
+    c.args([
+        "simulate",
+        "--scenario",
+        "slip",
+        "--duration",
+        "12",
+        "--seed",
+        "1",
+    ]);
+    c
+}
+
 /// An empty folder `<temp>/<prefix>-<pid>-<name>`, removed first if a
 /// previous run left it.
 pub fn scratch(prefix: &str, name: &str) -> PathBuf {
