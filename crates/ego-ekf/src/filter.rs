@@ -405,8 +405,8 @@ impl EgoEkf {
     /// the state untouched, except that the sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
     /// dead reckoning over the gap (or, without it, extrapolated at constant
-    /// velocity), the covariance grown by what was not measured (see
-    /// [`crate::gap`]), counted in [`EgoEkf::gaps`].
+    /// velocity and the last yaw rate), the covariance grown by what was not
+    /// measured (see [`crate::gap`]), counted in [`EgoEkf::gaps`].
     pub fn propagate(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
         let outcome = self.propagate_inner(sample);
         self.imu_counts.record(outcome.map(|_| ()));
