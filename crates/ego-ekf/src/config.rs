@@ -471,9 +471,13 @@ pub struct GapConfig {
     /// Density of the robot's unmeasured acceleration, m/s^2/sqrt(Hz)
     /// (white-noise-acceleration model over the gap).
     pub accel_density: f32,
-    /// Density of its unmeasured angular rate, rad/s/sqrt(Hz) (when the
-    /// wheels cannot dead-reckon the gap).
-    pub gyro_density: f32,
+    /// Largest plausible change of its yaw rate per second, rad/s^2: the
+    /// turn a held rate may miss over a short gap (when the wheels cannot
+    /// dead-reckon it; see [`crate::gap::constant_velocity`]).
+    pub yaw_accel: f32,
+    /// Largest plausible yaw rate, rad/s: bounds the turn a held rate may
+    /// miss over a long gap.
+    pub max_yaw_rate: f32,
     /// Whether wheel samples taken during the gap dead-reckon it (turns
     /// included, see [`crate::gap::odometry`]); otherwise, or when they do not
     /// cover it, the gap is bridged at constant velocity.
@@ -484,8 +488,9 @@ pub struct GapConfig {
 }
 
 impl Default for GapConfig {
-    /// A robot vacuum: about 0.5 m/s^2 and 1 rad/s in one second; wheels
-    /// dead-reckon gaps, up to 2 m/s per wheel.
+    /// A robot vacuum: about 0.5 m/s^2 in one second; its yaw rate changing
+    /// by 1 rad/s within 50 ms (20 rad/s^2: a turn's start or stop) and
+    /// never beyond 2 rad/s; wheels dead-reckon gaps, up to 2 m/s per wheel.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -495,7 +500,8 @@ impl GapConfig {
     /// The defaults ([`Default::default`]) as a constant, for `const` construction.
     pub const DEFAULT: Self = GapConfig {
         accel_density: 0.5,
-        gyro_density: 1.0,
+        yaw_accel: 20.0,
+        max_yaw_rate: 2.0,
         wheels: true,
         max_wheel_speed: 2.0,
     };
@@ -777,7 +783,8 @@ impl FilterConfig {
             self.imu.gyro_scale_random_walk,
             self.recovery.steady_tolerance,
             self.gap.accel_density,
-            self.gap.gyro_density,
+            self.gap.yaw_accel,
+            self.gap.max_yaw_rate,
             self.gap.max_wheel_speed,
         ];
         let flow_noise = self

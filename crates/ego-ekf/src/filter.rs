@@ -405,8 +405,8 @@ impl EgoEkf {
     /// the state untouched, except that the sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
     /// dead reckoning over the gap (or, without it, extrapolated at constant
-    /// velocity), the covariance grown by what was not measured (see
-    /// [`crate::gap`]), counted in [`EgoEkf::gaps`].
+    /// velocity and the last yaw rate), the covariance grown by what was not
+    /// measured (see [`crate::gap`]), counted in [`EgoEkf::gaps`].
     pub fn propagate(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
         let outcome = self.propagate_inner(sample);
         self.imu_counts.record(outcome.map(|_| ()));
@@ -598,7 +598,8 @@ impl EgoEkf {
     }
 
     /// Bridges the gap from `start` to `end` (`gap_ns` long): with the
-    /// wheels' dead reckoning if they covered it, else at constant velocity.
+    /// wheels' dead reckoning if they covered it, else at constant velocity
+    /// and the latest step's yaw rate.
     fn bridge(&mut self, gap_ns: u64, start: Option<Timestamp>, end: Timestamp) {
         let gap_s = vslam_core::time::nanos_to_seconds(gap_ns);
         // The bridge moves the pose: the clone due from the last moving step
@@ -608,7 +609,8 @@ impl EgoEkf {
         let motion = start.and_then(|s| self.gap_odometry.take(s, end, &geometry, &self.config));
         let by_wheels = motion
             .is_some_and(|m| bridge_with_wheels(&mut self.x, &mut self.p, &self.config, &m, gap_s));
-        if by_wheels || bridge_gap(&mut self.x, &mut self.p, &self.config, gap_s) {
+        let gyro = self.angular_velocity();
+        if by_wheels || bridge_gap(&mut self.x, &mut self.p, &self.config, &gyro, gap_s) {
             self.still.interrupt();
             let g = &mut self.gaps;
             g.by_wheels = g.by_wheels.saturating_add(u32::from(by_wheels));

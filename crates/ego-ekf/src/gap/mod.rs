@@ -18,7 +18,8 @@
 //!   at the end (along the new heading), a yaw variance grown by the wheels'
 //!   yaw-rate noise and the radius and track uncertainty;
 //! - [`constant_velocity`]: the fallback when the wheels did not cover the
-//!   gap ([`bridge_gap`]): `p += v T`, and a generic yaw-rate density.
+//!   gap ([`bridge_gap`]): `p += v T`, the heading turned at the last
+//!   measured yaw rate, its variance grown by the turn that rate may miss.
 
 pub mod constant_velocity;
 pub mod dead_reckoning;
