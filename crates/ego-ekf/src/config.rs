@@ -3,6 +3,8 @@
 
 use core::fmt;
 
+use crate::vibration::VibrationConfig;
+
 use vslam_core::geometry::Extrinsics;
 pub use vslam_core::robot::ImuNoise;
 use vslam_core::robot::{FlowDescription, RobotDescription, RobotError, Steering};
@@ -444,12 +446,18 @@ pub struct RecoveryConfig {
     /// (lifted robot, textureless floor) average to a vague zero that every
     /// speed "agrees" with.
     pub flow_witness_max_std: f32,
+    /// Slowest wheel speed, m/s, at which a filter faster than the wheels
+    /// (or against their direction) is taken to have drifted and is reset to
+    /// them ([`crate::recovery::overruns`]); below it the wheels may be
+    /// frozen or the robot pushed.
+    pub overrun_min_speed: f32,
 }
 
 impl Default for RecoveryConfig {
     /// Wheels trusted on floors of grip 0.85 and more (wood, tile),
     /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
-    /// only when its mean is known to 0.2 m/s.
+    /// only when its mean is known to 0.2 m/s, a filter overrunning wheels
+    /// that turn at 5 cm/s or more.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -462,6 +470,7 @@ impl RecoveryConfig {
         steady_tolerance: 0.05,
         silence_ns: 500_000_000,
         flow_witness_max_std: 0.2,
+        overrun_min_speed: 0.05,
     };
 }
 
@@ -601,6 +610,10 @@ pub struct FilterConfig {
     pub grip: GripParams,
     /// Magnitude of gravity, m/s^2.
     pub gravity: f32,
+    /// The ground's vibration, measured from the accelerometer and added to
+    /// the velocity's process noise ([`crate::vibration`]; `None`: the
+    /// sensor's noise density alone).
+    pub vibration: Option<VibrationConfig>,
 }
 
 impl Default for FilterConfig {
@@ -624,6 +637,7 @@ impl FilterConfig {
         camera: None,
         grip: GripParams::DEFAULT,
         gravity: crate::state::STANDARD_GRAVITY,
+        vibration: Some(VibrationConfig::DEFAULT),
     };
 }
 
@@ -631,6 +645,10 @@ impl FilterConfig {
 /// samples are 0.2 s, a ZUPT every 10 samples every 40 ms, a floor update
 /// every 25 samples every 0.1 s ([`FilterConfig::with_imu_rate`]).
 pub const NOMINAL_IMU_RATE_HZ: f32 = 250.0;
+
+/// The wheel rate [`WheelConfig`]'s sample counts are written for, Hz
+/// ([`FilterConfig::with_wheel_rate`]).
+pub const NOMINAL_WHEEL_RATE_HZ: f32 = 50.0;
 
 /// Smallest largest IMU step of [`FilterConfig::with_imu_rate`], ns (the
 /// default [`ImuConfig::max_dt_ns`]).
@@ -649,6 +667,25 @@ fn samples_at(n: u16, rate_hz: f32) -> u16 {
 }
 
 impl FilterConfig {
+    /// The configuration for wheels sampled at `rate_hz`, from one whose
+    /// sample counts are written for [`NOMINAL_WHEEL_RATE_HZ`] (as
+    /// [`FilterConfig::default`]'s are): the gated run after which the filter
+    /// re-examines its velocity ([`WheelConfig::reexamine_after_gated`])
+    /// keeps its duration (0.5 s; at least one sample; 0 stays 0). At 50 Hz
+    /// nothing changes; a rate that is not finite and positive changes
+    /// nothing either.
+    pub fn with_wheel_rate(mut self, rate_hz: f32) -> Self {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) || self.wheel.reexamine_after_gated == 0 {
+            return self;
+        }
+        let x = libm::roundf(
+            f32::from(self.wheel.reexamine_after_gated) * rate_hz / NOMINAL_WHEEL_RATE_HZ,
+        );
+        // In range: clamped to [1, u16::MAX] before the cast.
+        self.wheel.reexamine_after_gated = x.clamp(1.0, f32::from(u16::MAX)) as u16;
+        self
+    }
+
     /// The configuration for an IMU sampled at `rate_hz` (30 to 1000 Hz and
     /// beyond), from one whose sample counts are written for
     /// [`NOMINAL_IMU_RATE_HZ`] (as [`FilterConfig::default`]'s are): the
@@ -782,6 +819,7 @@ impl FilterConfig {
             self.imu.accel_max,
             self.imu.gyro_scale_random_walk,
             self.recovery.steady_tolerance,
+            self.recovery.overrun_min_speed,
             self.gap.accel_density,
             self.gap.yaw_accel,
             self.gap.max_yaw_rate,
@@ -827,6 +865,9 @@ impl FilterConfig {
         // A minimum grip above every grip (or infinite) never trusts the wheels.
         let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
         if self.wheel.skid.is_some_and(|s| !s.is_valid()) {
+            return Err(ConfigError::BadNoise);
+        }
+        if self.vibration.is_some_and(|v| !v.is_valid()) {
             return Err(ConfigError::BadNoise);
         }
         if !noise
@@ -904,6 +945,11 @@ mod tests {
     #[test]
     fn imu_rate_keeps_durations_and_bounds_the_step() {
         let d = FilterConfig::default();
+        assert_eq!(d.with_wheel_rate(NOMINAL_WHEEL_RATE_HZ), d);
+        assert_eq!(d.with_wheel_rate(f32::NAN), d);
+        assert_eq!(d.with_wheel_rate(6.5).wheel.reexamine_after_gated, 3);
+        assert_eq!(d.with_wheel_rate(0.1).wheel.reexamine_after_gated, 1);
+        assert_eq!(d.with_wheel_rate(200.0).wheel.reexamine_after_gated, 100);
         assert_eq!(d.with_imu_rate(NOMINAL_IMU_RATE_HZ), d);
         assert_eq!(d.with_imu_rate(f32::NAN), d);
         assert_eq!(d.with_imu_rate(0.0), d);

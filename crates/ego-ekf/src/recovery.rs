@@ -16,7 +16,10 @@
 //!    with the flow, nearer to them than to the filter (two sensors against
 //!    the filter), the velocity is reset to the flow; otherwise the wheels
 //!    slip: keep gating ([`Verdict::WheelsSlip`]);
-//! 2. without flow, the wheels themselves, but only if nothing says they slip:
+//! 2. without flow, the wheels themselves when the filter overruns them
+//!    (faster than the turning wheels, or against them: [`overruns`]; wheels
+//!    under-read a ground robot's motion only when it is pushed or slides),
+//!    or else only if nothing says they slip:
 //!    the floor's grip is high ([`RecoveryConfig::wheel_min_grip`]) and the
 //!    IMU agrees with the wheels about the motion. The IMU measures
 //!    accelerations well and velocity offsets badly; so the run must be one
@@ -396,6 +399,9 @@ pub struct Evidence<'a> {
     pub filter_var: f32,
     /// The wheels' forward speed, m/s.
     pub wheel_speed: f32,
+    /// The faster wheel's rim speed, m/s (not below zero): whether the
+    /// wheels turn at all (a turn in place has no forward speed).
+    pub wheel_rim_speed: f32,
     /// Its standard deviation on the current floor, m/s.
     pub wheel_std: f32,
     /// The wheels' 1-DOF chi-square gate on the current floor.
@@ -437,6 +443,9 @@ pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<
         }
         return Verdict::WheelsSlip;
     }
+    if overruns(config, e) {
+        return Verdict::Reset(ResetSource::Wheels);
+    }
     let run = e.run;
     if e.grip >= config.wheel_min_grip
         && run.trusted_onset
@@ -446,6 +455,30 @@ pub fn decide(config: &RecoveryConfig, wheel: &WheelConfig, evidence: &Evidence<
         return Verdict::Reset(ResetSource::Wheels);
     }
     Verdict::NoTrustedSource
+}
+
+/// Whether the filter's forward speed overruns the wheels': faster than
+/// their forward speed in its direction, or against it, beyond the wheels'
+/// gate, while a wheel turns at [`RecoveryConfig::overrun_min_speed`] or
+/// more (frozen wheels prove nothing; a turn in place does). A
+/// ground robot's wheels do not under-read its motion unless it is pushed
+/// or slides (spinning, stuck and lifted robots' wheels read more, not
+/// less), so the filter's velocity has drifted on the IMU alone (a tilt
+/// leaking gravity, vibration integrated): without a flow witness the
+/// wheels are the reset source.
+pub fn overruns(config: &RecoveryConfig, evidence: &Evidence<'_>) -> bool {
+    let (v, w) = (evidence.filter_velocity.x, evidence.wheel_speed);
+    if !(evidence.wheel_rim_speed >= config.overrun_min_speed && v.is_finite() && w.is_finite()) {
+        return false;
+    }
+    let excess = if v * w >= 0.0 {
+        v.abs() - w.abs()
+    } else {
+        (v - w).abs()
+    };
+    let var = evidence.filter_var + evidence.wheel_std * evidence.wheel_std;
+    // NaN compares false: no reset on a non-finite comparison.
+    excess > 0.0 && excess * excess > evidence.wheel_gate * var
 }
 
 /// Whether the wheels disagree with the flow witness of `evidence` (its

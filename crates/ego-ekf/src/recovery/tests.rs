@@ -6,6 +6,7 @@ fn evidence<'a>(run: &'a GatedRun, flow: Option<FlowWitness>) -> Evidence<'a> {
         filter_velocity: Vector2::new(0.6, 0.0),
         filter_var: 1e-4,
         wheel_speed: 0.3,
+        wheel_rim_speed: 0.3,
         wheel_std: 0.02,
         wheel_gate: 6.63,
         grip: 0.95,
@@ -111,8 +112,11 @@ fn a_vague_flow_mean_is_no_witness() {
     let c = RecoveryConfig::default();
     let w = WheelConfig::default();
     let run = steady_run(&c, false);
-    let v = decide(&c, &w, &evidence(&run, witness(0.0, 0.5)));
-    assert_eq!(v, Verdict::NoTrustedSource);
+    let lifted = Evidence {
+        filter_velocity: Vector2::new(0.0, 0.0),
+        ..evidence(&run, witness(0.0, 0.5))
+    };
+    assert_eq!(decide(&c, &w, &lifted), Verdict::NoTrustedSource);
 }
 
 #[test]
@@ -184,23 +188,84 @@ fn flow_that_agrees_with_the_filter_says_the_wheels_slip() {
     assert_eq!(v, Verdict::WheelsSlip);
 }
 
+/// Evidence without flow whose filter is slower than the wheels (a stuck
+/// or spinning robot's signature): only the grip and the run decide.
+fn behind<'a>(run: &'a GatedRun) -> Evidence<'a> {
+    Evidence {
+        filter_velocity: Vector2::new(0.05, 0.0),
+        ..evidence(run, None)
+    }
+}
+
 #[test]
 fn without_flow_the_wheels_only_after_silence_on_high_grip() {
     let c = RecoveryConfig::default();
     let w = WheelConfig::default();
     let jump = steady_run(&c, false);
-    assert_eq!(
-        decide(&c, &w, &evidence(&jump, None)),
-        Verdict::NoTrustedSource
-    );
+    assert_eq!(decide(&c, &w, &behind(&jump)), Verdict::NoTrustedSource);
     let silence = steady_run(&c, true);
     assert_eq!(
-        decide(&c, &w, &evidence(&silence, None)),
+        decide(&c, &w, &behind(&silence)),
         Verdict::Reset(ResetSource::Wheels)
     );
-    let mut carpet = evidence(&silence, None);
+    let mut carpet = behind(&silence);
     carpet.grip = 0.7;
     assert_eq!(decide(&c, &w, &carpet), Verdict::NoTrustedSource);
+}
+
+#[test]
+fn without_flow_a_filter_overrunning_turning_wheels_is_reset_to_them() {
+    let c = RecoveryConfig::default();
+    let w = WheelConfig::default();
+    // A run that says nothing for the wheels (no silence, on carpet).
+    let run = steady_run(&c, false);
+    let ahead = Evidence {
+        grip: 0.7,
+        ..evidence(&run, None)
+    };
+    // The filter at 0.6 m/s, the wheels at 0.3: wheels do not under-read.
+    assert!(overruns(&c, &ahead));
+    assert_eq!(decide(&c, &w, &ahead), Verdict::Reset(ResetSource::Wheels));
+    // Against the wheels' direction.
+    let against = Evidence {
+        filter_velocity: Vector2::new(-0.2, 0.0),
+        ..ahead
+    };
+    assert!(overruns(&c, &against));
+    // A turn in place: no forward speed, but the wheels turn.
+    let in_place = Evidence {
+        filter_velocity: Vector2::new(0.4, 0.0),
+        wheel_speed: 0.0,
+        wheel_rim_speed: 0.25,
+        ..ahead
+    };
+    assert!(overruns(&c, &in_place));
+    // Frozen wheels prove nothing: the robot may be pushed, the counts stuck.
+    let frozen = Evidence {
+        wheel_rim_speed: 0.0,
+        ..in_place
+    };
+    assert!(!overruns(&c, &frozen));
+    assert_eq!(decide(&c, &w, &frozen), Verdict::NoTrustedSource);
+    // Within the wheels' gate, or slower than them: not an overrun.
+    let close = Evidence {
+        filter_velocity: Vector2::new(0.33, 0.0),
+        ..ahead
+    };
+    assert!(!overruns(&c, &close));
+    assert!(!overruns(&c, &behind(&run)));
+    // Non-finite evidence resets nothing.
+    let nan = Evidence {
+        filter_velocity: Vector2::new(f32::NAN, 0.0),
+        ..ahead
+    };
+    assert!(!overruns(&c, &nan));
+    // A flow witness, when there is one, decides first.
+    let with_flow = Evidence {
+        flow: witness(0.6, 0.02),
+        ..ahead
+    };
+    assert_eq!(decide(&c, &w, &with_flow), Verdict::WheelsSlip);
 }
 
 #[test]
@@ -214,10 +279,7 @@ fn an_unsteady_run_is_no_offset() {
         run.push(&c, -0.1 - 0.03 * f32::from(k), false);
     }
     assert!(run.steady_len() < w.reexamine_after_gated);
-    assert_eq!(
-        decide(&c, &w, &evidence(&run, None)),
-        Verdict::NoTrustedSource
-    );
+    assert_eq!(decide(&c, &w, &behind(&run)), Verdict::NoTrustedSource);
     assert!(run.due(&w));
 }
 

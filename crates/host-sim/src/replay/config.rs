@@ -255,10 +255,34 @@ pub fn imu_rate_hz(ds: &Dataset) -> Option<f32> {
     Some((1.0e9 / median as f64) as f32)
 }
 
+/// The wheels' sample rate, Hz: from the median step between consecutive
+/// samples of `wheel0` (ticks or angular rates); `None` without wheels or
+/// with fewer than two increasing samples.
+pub fn wheel_rate_hz(ds: &Dataset) -> Option<f32> {
+    let times: Vec<u64> = match (&ds.wheel, &ds.wheel_rates) {
+        (Some((_, s)), _) => s.iter().map(|w| w.t.as_nanos()).collect(),
+        (None, Some((_, s))) => s.iter().map(|w| w.t.as_nanos()).collect(),
+        (None, None) => return None,
+    };
+    let mut steps: Vec<u64> = times
+        .windows(2)
+        .map(|w| w[1].saturating_sub(w[0]))
+        .filter(|&d| d > 0)
+        .collect();
+    if steps.is_empty() {
+        return None;
+    }
+    let mid = steps.len() / 2;
+    let median = *steps.select_nth_unstable(mid).1;
+    Some((1.0e9 / median as f64) as f32)
+}
+
 /// The estimator's configuration: [`EstimatorConfig::from_robot`] on the
 /// dataset's [`robot_description`], the filter's sample counts and largest
 /// IMU step for the IMU's rate ([`imu_rate_hz`],
 /// [`FilterConfig::with_imu_rate`](traction::ego_ekf::FilterConfig::with_imu_rate)),
+/// the wheels' re-examination count for their rate ([`wheel_rate_hz`],
+/// [`FilterConfig::with_wheel_rate`](traction::ego_ekf::FilterConfig::with_wheel_rate)),
 /// the surface model from `seg0`, and the scale pipeline's selection method,
 /// composition and distance and the scale pipeline's distrust of the wheels
 /// passed to the EKF as `options` say.
@@ -272,6 +296,9 @@ pub(crate) fn estimator_config(
         .map_err(|e| CliError::file(root, format!("configuration: {e}")))?;
     if let Some(hz) = imu_rate_hz(ds) {
         config.filter = config.filter.with_imu_rate(hz);
+    }
+    if let Some(hz) = wheel_rate_hz(ds) {
+        config.filter = config.filter.with_wheel_rate(hz);
     }
     let wheel_type_name = wheel_meta(ds).map_or("", |m| m.wheel_type.as_str());
     config.surface = match (&ds.seg, &ds.cam1) {
