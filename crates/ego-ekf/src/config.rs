@@ -1,6 +1,7 @@
 //! Filter configuration: IMU noise densities and limits, one struct per
 //! aiding sensor (wheels, flow, floor, camera), the robot prior, the still detector. Checked once by [`FilterConfig::check`].
 
+use crate::vibration::VibrationConfig;
 use core::fmt;
 
 use vslam_core::geometry::Extrinsics;
@@ -595,6 +596,10 @@ pub struct FilterConfig {
     pub grip: GripParams,
     /// Magnitude of gravity, m/s^2.
     pub gravity: f32,
+    /// The floor's vertical vibration measured from the accelerometer and
+    /// added to the vertical velocity's process noise
+    /// ([`crate::vibration`]; `None`: the sensor's noise density alone).
+    pub vibration: Option<VibrationConfig>,
 }
 
 impl Default for FilterConfig {
@@ -618,6 +623,7 @@ impl FilterConfig {
         camera: None,
         grip: GripParams::DEFAULT,
         gravity: crate::state::STANDARD_GRAVITY,
+        vibration: Some(VibrationConfig::DEFAULT),
     };
 }
 

@@ -23,6 +23,7 @@ use crate::propagate::{
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Refutation, Verdict};
 use crate::state::{CLONE, Covariance, ErrorState, NominalState, P, Quat, TH, V, Vec3};
 use crate::update::{Measurement, UpdateReport, gated_update};
+use crate::vibration::{self, Vibration};
 use crate::wheel::distrust::WheelDistrust;
 use crate::wheel::{WheelFusion, WheelInnovation};
 use crate::zupt::{StillDetector, ZuptFusion};
@@ -149,6 +150,8 @@ pub struct EgoEkf {
     distrust: WheelDistrust,
     /// The adverse-event memory's weights where the robot is.
     weights: SensorWeights,
+    /// The floor's vertical vibration, measured.
+    vibration: Vibration,
     gaps: GapCounts,
     gap_odometry: GapOdometry,
     /// What the pose clone holds and who reads it (see [`CloneUse`]).
@@ -329,6 +332,7 @@ impl EgoEkf {
             refutation: Refutation::new(),
             distrust: WheelDistrust::new(),
             weights: SensorWeights::FULL,
+            vibration: Vibration::new(),
             gaps: GapCounts::new(),
             gap_odometry: GapOdometry::new(),
             clone: CloneUse::Still,
@@ -468,7 +472,12 @@ impl EgoEkf {
         let f = self.transition(&r_wb, &accel, &gyro, dt);
         let weighted = self.weighted_imu();
         let imu = weighted.as_ref().unwrap_or(&self.config.imu);
-        let q = process_noise(imu, &self.config.robot, dt);
+        let mut q = process_noise(imu, &self.config.robot, dt);
+        if let Some(vc) = &self.config.vibration {
+            let noise_var = imu.noise.accel_density * imu.noise.accel_density / dt;
+            let excess = self.vibration.step(vc, sample.accel().z, dt, noise_var);
+            vibration::add_to_process_noise(&mut q, excess, dt);
+        }
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
 

@@ -81,6 +81,7 @@ pub mod reference;
 pub mod state;
 pub mod surface;
 pub mod update;
+pub mod vibration;
 pub mod wheel;
 pub mod zupt;
 

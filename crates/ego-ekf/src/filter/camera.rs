@@ -12,6 +12,7 @@ use crate::camera::CameraSkips;
 use crate::camera::model::imu_motion;
 use crate::covariance;
 use crate::propagate::{process_noise, propagate_nominal};
+use crate::vibration;
 
 impl EgoEkf {
     /// Fuses a camera frame pair's motion (see [`crate::camera`]): the
@@ -112,7 +113,11 @@ impl EgoEkf {
         let f = self.transition(&r_wb, &accel, &gyro, dt);
         let weighted = self.weighted_imu();
         let imu = weighted.as_ref().unwrap_or(&self.config.imu);
-        let q = process_noise(imu, &self.config.robot, dt);
+        let mut q = process_noise(imu, &self.config.robot, dt);
+        if self.config.vibration.is_some() {
+            let noise_var = imu.noise.accel_density * imu.noise.accel_density / dt;
+            vibration::add_to_process_noise(&mut q, self.vibration.excess(noise_var), dt);
+        }
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
         true
