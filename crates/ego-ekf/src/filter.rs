@@ -474,8 +474,8 @@ impl EgoEkf {
         let imu = weighted.as_ref().unwrap_or(&self.config.imu);
         let mut q = process_noise(imu, &self.config.robot, dt);
         if let Some(vc) = &self.config.vibration {
-            self.vibration.step(vc, &(r_wb * accel), &gyro, dt);
             let noise = SampleNoise::new(imu.noise.accel_density, imu.noise.gyro_density, dt);
+            self.vibration.step(vc, &(r_wb * accel), &gyro, noise, dt);
             self.vibration.add_to_process_noise(vc, &mut q, noise, dt);
         }
         propagate_nominal(&mut self.x, &accel, &gyro, dt);

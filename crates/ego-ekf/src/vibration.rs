@@ -20,13 +20,19 @@
 //! dt`) is the vibration's variance per sample, and the velocity's process
 //! noise on that axis gains that times `dt^2` per step (a white
 //! acceleration sample's velocity increment). The gyroscope's rate is
-//! measured the same way, in the body frame, for the attitude. An
+//! measured the same way, in the body frame, for the attitude. A jolt (a
+//! wheel climbing a cable or a threshold strip: a few m/s^2 for a fifth of
+//! a second) is motion the filter must follow, not vibration: each sample's
+//! term enters the power clipped at [`VibrationConfig::clip_sigmas`]
+//! squared times the power so far (at least the sensor's own variance), so
+//! a lone jolt hardly raises it while a floor that keeps shaking raises it
+//! within a few tenths of a second. An
 //! adaptive process noise from the measured specific force, after the
 //! vibration-aware system noise of land-vehicle inertial navigation
 //! (Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
-//! Navigation Systems", 2nd ed., 2013, sec. 14.2.7). The horizontal axes
-//! take it by default; the vertical axis only when
-//! [`VibrationConfig::vertical`] says so (the floor update holds the height).
+//! Navigation Systems", 2nd ed., 2013, sec. 14.2.7). The horizontal and
+//! vertical velocity and the roll and pitch take it by default (the yaw,
+//! which no gravity leaks into, does not).
 
 use crate::state::{ErrorState, TH, V, Vec3};
 
@@ -35,6 +41,9 @@ use crate::state::{ErrorState, TH, V, Vec3};
 pub struct VibrationConfig {
     /// Time constant of the vibration's power, s.
     pub power_tau_s: f32,
+    /// A sample's term enters the power clipped at this many squared times
+    /// the power so far (or the sensor's variance, if larger).
+    pub clip_sigmas: f32,
     /// Whether the world's horizontal velocity axes take the vibration.
     pub horizontal: bool,
     /// Whether the world's vertical velocity axis takes the vibration.
@@ -45,18 +54,23 @@ pub struct VibrationConfig {
 }
 
 impl VibrationConfig {
-    /// The defaults: a 0.5 s power average; the horizontal velocity and
-    /// the roll and pitch take it.
+    /// The defaults: a 0.5 s power average, samples clipped at 3 sigma; the
+    /// velocity and the roll and pitch take it.
     pub const DEFAULT: Self = VibrationConfig {
         power_tau_s: 0.5,
+        clip_sigmas: 3.0,
         horizontal: true,
-        vertical: false,
+        vertical: true,
         tilt: true,
     };
 
-    /// Whether the time constant is finite and not negative.
+    /// Whether the time constant is finite and not negative and the clip
+    /// finite and positive.
     pub fn is_valid(&self) -> bool {
-        self.power_tau_s.is_finite() && self.power_tau_s >= 0.0
+        self.power_tau_s.is_finite()
+            && self.power_tau_s >= 0.0
+            && self.clip_sigmas.is_finite()
+            && self.clip_sigmas > 0.0
     }
 }
 
@@ -93,17 +107,40 @@ impl Vibration {
     }
 
     /// Takes one sample's world-frame specific force `f` (m/s^2) and
-    /// body-frame angular rate `w` (rad/s) over a step of `dt` seconds. A
+    /// body-frame angular rate `w` (rad/s) over a step of `dt` seconds;
+    /// `noise` holds the sensors' own sample variances (the clip's floor). A
     /// non-finite value or `dt`, or a `dt` that is not positive, changes
     /// nothing.
-    pub fn step(&mut self, config: &VibrationConfig, f: &Vec3, w: &Vec3, dt: f32) {
+    pub fn step(
+        &mut self,
+        config: &VibrationConfig,
+        f: &Vec3,
+        w: &Vec3,
+        noise: SampleNoise,
+        dt: f32,
+    ) {
         let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
         if !(finite(f) && finite(w) && dt.is_finite() && dt > 0.0) {
             return;
         }
         let b = weight(dt, config.power_tau_s);
-        track(&mut self.previous, &mut self.power, f, b);
-        track(&mut self.rate_previous, &mut self.rate_power, w, b);
+        let k = config.clip_sigmas * config.clip_sigmas;
+        track(
+            &mut self.previous,
+            &mut self.power,
+            f,
+            b,
+            k,
+            noise.accel_var,
+        );
+        track(
+            &mut self.rate_previous,
+            &mut self.rate_power,
+            w,
+            b,
+            k,
+            noise.gyro_var,
+        );
     }
 
     /// The measured specific-force power per world axis beyond the
@@ -172,13 +209,18 @@ impl SampleNoise {
 }
 
 /// One step of the power average of `x`: half the square of its change
-/// since the previous sample, averaged with weight `b`.
-fn track(previous: &mut Option<Vec3>, power: &mut Vec3, x: &Vec3, b: f32) {
+/// since the previous sample, clipped at `k` times the power so far (at
+/// least `floor`), averaged with weight `b`.
+fn track(previous: &mut Option<Vec3>, power: &mut Vec3, x: &Vec3, b: f32, k: f32, floor: f32) {
     let Some(p) = previous.replace(*x) else {
         return;
     };
     let d = x - p;
-    *power += (d.component_mul(&d) * 0.5 - *power) * b;
+    let term = (d.component_mul(&d) * 0.5).zip_map(power, |t, pw| {
+        let clip = k * if pw > floor { pw } else { floor };
+        if t < clip { t } else { clip }
+    });
+    *power += (term - *power) * b;
 }
 
 /// `power` beyond `noise_var`, per axis, not below zero.
@@ -220,6 +262,10 @@ mod tests {
     fn the_excess_power_is_the_vibration_variance_per_axis() {
         let c = VibrationConfig::DEFAULT;
         let (dt, sensor) = (0.01, 0.02f32);
+        let noise = SampleNoise {
+            accel_var: sensor * sensor,
+            gyro_var: 1e-6,
+        };
         let mut v = Vibration::new();
         let mut rng = Lcg(3);
         let mut sum = Vec3::zeros();
@@ -229,7 +275,7 @@ mod tests {
                 0.3 * rng.next() + sensor * rng.next(),
                 9.81 + sensor * rng.next(),
             );
-            v.step(&c, &f, &Vec3::zeros(), dt);
+            v.step(&c, &f, &Vec3::zeros(), noise, dt);
             if k >= 2_000 {
                 sum += v.excess(sensor * sensor);
             }
@@ -245,7 +291,7 @@ mod tests {
         let mut drive = Vibration::new();
         for k in 0..2_000 {
             let a = libm::sinf(core::f32::consts::TAU * k as f32 * dt);
-            drive.step(&c, &Vec3::new(a, 0.0, 9.81), &Vec3::zeros(), dt);
+            drive.step(&c, &Vec3::new(a, 0.0, 9.81), &Vec3::zeros(), noise, dt);
         }
         assert!(drive.excess(0.0).x < 0.001, "{}", drive.excess(0.0));
         // A slow change of the mean (a ramp) is not vibration.
@@ -255,19 +301,33 @@ mod tests {
                 &c,
                 &Vec3::new(0.0005 * k as f32, 0.0, 9.81),
                 &Vec3::zeros(),
+                noise,
                 dt,
             );
         }
         assert!(ramp.excess(0.0).x < 1e-4);
         // Bad samples change nothing.
         let before = v;
-        v.step(&c, &Vec3::new(f32::NAN, 0.0, 9.81), &Vec3::zeros(), dt);
-        v.step(&c, &Vec3::zeros(), &Vec3::new(0.0, f32::NAN, 0.0), dt);
-        v.step(&c, &Vec3::new(0.0, 0.0, 9.81), &Vec3::zeros(), 0.0);
+        v.step(
+            &c,
+            &Vec3::new(f32::NAN, 0.0, 9.81),
+            &Vec3::zeros(),
+            noise,
+            dt,
+        );
+        v.step(
+            &c,
+            &Vec3::zeros(),
+            &Vec3::new(0.0, f32::NAN, 0.0),
+            noise,
+            dt,
+        );
+        v.step(&c, &Vec3::new(0.0, 0.0, 9.81), &Vec3::zeros(), noise, 0.0);
         v.step(
             &c,
             &Vec3::new(0.0, 0.0, 9.81),
             &Vec3::zeros(),
+            noise,
             f32::INFINITY,
         );
         assert_eq!(v, before);
@@ -289,8 +349,10 @@ mod tests {
         assert!((q[V + 1] - 1.0 * dt * dt).abs() < 1e-9);
         assert!((q[TH] - 0.04 * dt * dt).abs() < 1e-10);
         assert!((q[TH + 1] - 0.09 * dt * dt).abs() < 1e-10);
-        // Yaw and the vertical velocity stay as they were.
-        assert_eq!(q.iter().filter(|x| **x != 0.0).count(), 4);
+        assert!((q[V + 2] - 0.5 * dt * dt).abs() < 1e-9);
+        // The yaw stays as it was.
+        assert_eq!(q.iter().filter(|x| **x != 0.0).count(), 5);
+        assert_eq!(q[TH + 2], 0.0);
         let vertical = VibrationConfig {
             horizontal: false,
             vertical: true,
@@ -319,15 +381,52 @@ mod tests {
     fn the_rate_excess_is_the_rotational_vibration() {
         let c = VibrationConfig::DEFAULT;
         let (dt, sensor) = (0.01, 0.002f32);
+        let noise = SampleNoise {
+            accel_var: 4e-4,
+            gyro_var: sensor * sensor,
+        };
         let mut v = Vibration::new();
         let mut rng = Lcg(7);
         for _ in 0..2_000 {
             let w = Vec3::new(0.2 * rng.next(), sensor * rng.next(), 0.3);
-            v.step(&c, &Vec3::new(0.0, 0.0, 9.81), &w, dt);
+            v.step(&c, &Vec3::new(0.0, 0.0, 9.81), &w, noise, dt);
         }
         let e = v.rate_excess(sensor * sensor / dt);
         assert!((e.x - 0.04).abs() < 0.012, "{e}");
         assert!(e.y < 1e-4 && e.z < 1e-6, "{e}");
+    }
+
+    #[test]
+    fn a_lone_jolt_is_motion_a_shaking_floor_is_vibration() {
+        let c = VibrationConfig::DEFAULT;
+        // 250 Hz, a consumer accelerometer's 2e-3 m/s^2/sqrt(Hz).
+        let dt = 0.004;
+        let noise = SampleNoise::new(2e-3, 2e-4, dt);
+        let sensor = libm::sqrtf(noise.accel_var);
+        let mut rng = Lcg(11);
+        let level =
+            |rng: &mut Lcg, extra: f32| Vec3::new(0.0, 0.0, 9.81 + extra + sensor * rng.next());
+        let mut v = Vibration::new();
+        for _ in 0..500 {
+            v.step(&c, &level(&mut rng, 0.0), &Vec3::zeros(), noise, dt);
+        }
+        // A wheel climbing a cable: three samples of 5 m/s^2.
+        for k in 0..250 {
+            let jolt = if (100..103).contains(&k) { 5.0 } else { 0.0 };
+            v.step(&c, &level(&mut rng, jolt), &Vec3::zeros(), noise, dt);
+        }
+        let after_jolt = v.excess(noise.accel_var).z;
+        // Unclipped, the jolt's squared steps (12.5 m^2/s^4 twice) would
+        // have raised the power by about 0.2.
+        assert!(after_jolt < 0.01, "{after_jolt}");
+        // Carpet: 0.6 m/s^2 per sample (0.36 m^2/s^4), most of it within a
+        // second (the clip delays the first tenths, the 0.5 s average the rest).
+        for _ in 0..250 {
+            let shake = 0.6 * rng.next();
+            v.step(&c, &level(&mut rng, shake), &Vec3::zeros(), noise, dt);
+        }
+        let carpet = v.excess(noise.accel_var).z;
+        assert!(carpet > 0.2 && carpet < 0.5, "{carpet}");
     }
 
     #[test]
@@ -336,6 +435,11 @@ mod tests {
         for bad in [f32::NAN, -1.0, f32::INFINITY] {
             let c = VibrationConfig {
                 power_tau_s: bad,
+                ..VibrationConfig::DEFAULT
+            };
+            assert!(!c.is_valid());
+            let c = VibrationConfig {
+                clip_sigmas: bad,
                 ..VibrationConfig::DEFAULT
             };
             assert!(!c.is_valid());

@@ -16,8 +16,8 @@ use ego_ekf::propagate::exp_so3;
 use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{DIM, ErrorState, KG, Quat, Vec3, rotate_local};
 use ego_ekf::update::mirror_upper_to_lower;
-use ego_ekf::wheel::model::{SUPPORT, wheel_measurement, wheel_rows};
-use ego_ekf::wheel::update::update;
+use ego_ekf::wheel::model::{SUPPORT, VERTICAL, wheel_measurement, wheel_rows};
+use ego_ekf::wheel::update::{VERTICAL_HUBER, update};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
 use random_update::{Rng, normalised_error, oracle, random_covariance, random_state, state_error};
@@ -67,6 +67,13 @@ proptest! {
         // Cases within 0.1 % of the gate may fall either way in f32.
         prop_assume!((ratio(0) - 1.0).abs() > 1e-3 && (ratio(1) - 1.0).abs() > 1e-3);
         let gated = ratio(0) > 1.0 || ratio(1) > 1.0;
+        // The vertical row's Huber weight: its noise raised until its
+        // innovation is at `VERTICAL_HUBER` standard deviations.
+        let mut m = m;
+        let (y_v, huber2) = (f64::from(m.residual[VERTICAL]), f64::from(VERTICAL_HUBER).powi(2));
+        if y_v * y_v > huber2 * s[(VERTICAL, VERTICAL)] {
+            m.noise[(VERTICAL, VERTICAL)] += (y_v * y_v / huber2 - s[(VERTICAL, VERTICAL)]) as f32;
+        }
         let (mut x, mut p) = (x0, p0);
         let out = update(&mut x, &mut p, &rows, gate).unwrap();
         prop_assert_eq!(out.gated, gated);

@@ -16,6 +16,14 @@
 //! grip's 1-DOF chi-square gate on their own variance under the prior `P`;
 //! when either fails, only the lateral and vertical rows are fused.
 //!
+//! The vertical row has a Huber-type weight: an innovation beyond
+//! [`VERTICAL_HUBER`] standard deviations has its noise raised until it is
+//! at that many. A wheel climbing a cable or a threshold strip lifts the
+//! robot at a tenth of a metre per second, which the non-holonomic row
+//! (millimetres per second) would otherwise hold at zero against the
+//! accelerometer: the climb is then followed by the IMU, pulled only a
+//! little.
+//!
 //! On a low-grip floor ([`WheelRows::holds_radius`]) the wheel radii are
 //! Schmidt consider parameters: their uncertainty enters the innovation
 //! variance, but their gain is zero and their own covariance block stays
@@ -32,6 +40,10 @@ use crate::wheel::model::{DIFFERENTIAL, FORWARD, LATERAL, VERTICAL, WheelRows};
 // The constraint rows are adjacent (their `P H^T` columns are taken as a
 // block), and the gated rows come first.
 const _: () = assert!(VERTICAL == LATERAL + 1 && FORWARD == 0 && DIFFERENTIAL == 1);
+
+/// Innovations of the vertical row beyond this many standard deviations
+/// have their noise raised until they are at this many.
+pub const VERTICAL_HUBER: f32 = 3.0;
 
 /// The radii's error-state entries, held on low-grip floors.
 const RADII: [usize; 2] = [RAD_L, RAD_R];
@@ -70,8 +82,15 @@ pub fn update(
     }
     let mut pht = SMatrix::<f32, DIM, 4>::zeros();
     rows.p_ht_to(p, &mut pht);
-    let s = rows.innovation_covariance(&pht);
-    let [forward, diff, ..] = rows.residual.data.0[0];
+    let mut s = rows.innovation_covariance(&pht);
+    let [forward, diff, _, vertical] = rows.residual.data.0[0];
+    if let Some(s_v) = s.get_mut((VERTICAL, VERTICAL)) {
+        // Raise R so that y^2 / (H P H^T + R) = huber^2.
+        let huber2 = VERTICAL_HUBER * VERTICAL_HUBER;
+        if vertical * vertical > huber2 * *s_v {
+            *s_v = vertical * vertical / huber2;
+        }
+    }
     let var_fwd = s.get((FORWARD, FORWARD)).copied().unwrap_or(0.0);
     let var_diff = s.get((DIFFERENTIAL, DIFFERENTIAL)).copied().unwrap_or(0.0);
     if !(var_fwd > 0.0 && var_diff > 0.0) {
