@@ -123,11 +123,12 @@ core::arch::global_asm!(
 /// HardFault) and ends the run with a failure.
 extern "C" fn fault_report(sp: usize, hard: u32) -> ! {
     // SAFETY: reads of the fault status registers (B3.2.15-B3.2.17).
-    let (cfsr, mmfar, hfsr) = unsafe {
+    let (cfsr, mmfar, hfsr, bfar) = unsafe {
         (
             core::ptr::read_volatile(0xE000_ED28 as *const u32),
             core::ptr::read_volatile(0xE000_ED34 as *const u32),
             core::ptr::read_volatile(0xE000_ED2C as *const u32),
+            core::ptr::read_volatile(0xE000_ED38 as *const u32),
         )
     };
     let floor = floor();
@@ -142,9 +143,15 @@ extern "C" fn fault_report(sp: usize, hard: u32) -> ! {
                 top - floor
             )
         } else {
+            // The stacked frame's PC, when the frame is above the guard.
+            let pc = (sp >= floor && sp + 32 <= top)
+                // SAFETY: an aligned word of the stack (B1.5.6: PC at +24).
+                .then(|| unsafe { core::ptr::read_volatile((sp + 24) as *const u32) })
+                .unwrap_or(0);
             writeln!(
                 out,
-                "error hard_fault sp {sp:#010x} cfsr {cfsr:#010x} hfsr {hfsr:#010x}"
+                "error hard_fault sp {sp:#010x} pc {pc:#010x} cfsr {cfsr:#010x} hfsr {hfsr:#010x} \
+                 bfar {bfar:#010x}"
             )
         };
         let _ = writeln!(out, "firmware: failed");

@@ -72,6 +72,25 @@ fn bottom(top: usize, depth: usize) -> usize {
 pub fn paint_depth(depth: usize) -> usize {
     let top = sp() & !3;
     let mut a = bottom(top, depth);
+    if cfg!(debug_assertions) {
+        // A debug build calls `write_volatile` out of line, and its frame
+        // would land on the words being painted: paint in assembly.
+        // SAFETY: as below.
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "cmp {a}, {top}",
+                "bhs 3f",
+                "str {v}, [{a}], #4",
+                "b 2b",
+                "3:",
+                a = inout(reg) a,
+                top = in(reg) top,
+                v = in(reg) PATTERN,
+                options(nostack),
+            )
+        };
+    }
     while a < top {
         // SAFETY: the words below the stack pointer and above the guard
         // are free stack (no interrupts, no other thread).
