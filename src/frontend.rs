@@ -312,10 +312,13 @@ pub struct FrameStats {
 /// [`FrontEnd::process`], are that long. A smaller capacity does not compile:
 ///
 /// ```compile_fail
-/// use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
-/// # fn f(c: FrontEndConfig, b: FrontEndBuffers<'static>) {
-/// let fe = FrontEnd::<'static, 3>::new(c, b);
-/// # }
+/// use traction::frontend::FrontEnd;
+/// let _ = FrontEnd::<'static, 3>::CAPACITY;
+/// ```
+///
+/// ```
+/// use traction::frontend::FrontEnd;
+/// assert_eq!(FrontEnd::<'static, 4>::CAPACITY, 4);
 /// ```
 pub struct FrontEnd<'b, const FEATURES: usize = MAX_FEATURES> {
     config: FrontEndConfig,
@@ -342,19 +345,22 @@ pub struct FrontEnd<'b, const FEATURES: usize = MAX_FEATURES> {
 }
 
 impl<'b, const FEATURES: usize> FrontEnd<'b, FEATURES> {
-    /// The capacity's lower bound, checked when the type is used.
-    const CAPACITY: () = assert!(
-        FEATURES >= MIN_FEATURES,
-        "front-end feature capacity below MIN_FEATURES"
-    );
+    /// The feature capacity, `FEATURES`; using a front end (or this) with
+    /// less than [`MIN_FEATURES`] does not compile.
+    pub const CAPACITY: usize = {
+        assert!(
+            FEATURES >= MIN_FEATURES,
+            "front-end feature capacity below MIN_FEATURES"
+        );
+        FEATURES
+    };
 
     /// Checks the buffers and the settings (`min_tracks` at most `FEATURES`).
     pub fn new(
         config: FrontEndConfig,
         buffers: FrontEndBuffers<'b>,
     ) -> Result<Self, FrontEndError> {
-        let () = Self::CAPACITY;
-        if config.min_tracks > FEATURES {
+        if config.min_tracks > Self::CAPACITY {
             return Err(FrontEndError::BadConfig);
         }
         let need = FrontEndBuffers::sizes(

@@ -144,10 +144,12 @@ extern "C" fn fault_report(sp: usize, hard: u32) -> ! {
             )
         } else {
             // The stacked frame's PC, when the frame is above the guard.
-            let pc = (sp >= floor && sp + 32 <= top)
+            let pc = if sp >= floor && sp + 32 <= top {
                 // SAFETY: an aligned word of the stack (B1.5.6: PC at +24).
-                .then(|| unsafe { core::ptr::read_volatile((sp + 24) as *const u32) })
-                .unwrap_or(0);
+                unsafe { core::ptr::read_volatile((sp + 24) as *const u32) }
+            } else {
+                0
+            };
             writeln!(
                 out,
                 "error hard_fault sp {sp:#010x} pc {pc:#010x} cfsr {cfsr:#010x} hfsr {hfsr:#010x} \
