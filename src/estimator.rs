@@ -437,7 +437,7 @@ impl<
         self.configured
     }
 
-    /// Fits the camera path: built by [`FrontEnd::new`] from `config` and
+    /// Fits the camera path: built by [`FrontEnd::with_capacity`] from `config` and
     /// the caller's `buffers`, then moved in; on an error the estimator has
     /// no camera path.
     pub fn fit_frontend(
@@ -446,7 +446,7 @@ impl<
         buffers: FrontEndBuffers<'b>,
     ) -> Result<(), FrontEndError> {
         self.frontend = None;
-        self.frontend = Some(FrontEnd::new(config, buffers)?);
+        self.frontend = Some(FrontEnd::with_capacity(config, buffers)?);
         Ok(())
     }
 

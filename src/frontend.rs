@@ -307,7 +307,7 @@ pub struct FrameStats {
 
 /// The camera path, for up to `FEATURES` features per frame (default
 /// [`MAX_FEATURES`], at least [`MIN_FEATURES`], and at least the
-/// configuration's `min_tracks`, checked by [`FrontEnd::new`]): its feature
+/// configuration's `min_tracks`, checked by [`FrontEnd::with_capacity`]): its feature
 /// list and RANSAC scratch, and the corners and point pairs on the stack of
 /// [`FrontEnd::process`], are that long. A smaller capacity does not compile:
 ///
@@ -344,6 +344,17 @@ pub struct FrontEnd<'b, const FEATURES: usize = MAX_FEATURES> {
     bridged: u8,
 }
 
+impl<'b> FrontEnd<'b> {
+    /// Checks the buffers and the settings: a front end of the default
+    /// capacity, [`MAX_FEATURES`] ([`FrontEnd::with_capacity`] for another).
+    pub fn new(
+        config: FrontEndConfig,
+        buffers: FrontEndBuffers<'b>,
+    ) -> Result<Self, FrontEndError> {
+        Self::with_capacity(config, buffers)
+    }
+}
+
 impl<'b, const FEATURES: usize> FrontEnd<'b, FEATURES> {
     /// The feature capacity, `FEATURES`; using a front end (or this) with
     /// less than [`MIN_FEATURES`] does not compile.
@@ -356,7 +367,7 @@ impl<'b, const FEATURES: usize> FrontEnd<'b, FEATURES> {
     };
 
     /// Checks the buffers and the settings (`min_tracks` at most `FEATURES`).
-    pub fn new(
+    pub fn with_capacity(
         config: FrontEndConfig,
         buffers: FrontEndBuffers<'b>,
     ) -> Result<Self, FrontEndError> {
