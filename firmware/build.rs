@@ -7,4 +7,5 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-env-changed=FIRMWARE_ESTIMATOR_STACK_LIMIT");
+    println!("cargo:rerun-if-env-changed=FIRMWARE_STACK_BYTES");
 }

@@ -58,7 +58,7 @@
 
 use crate::disagreement::DisagreementCheck;
 use crate::estimate::{Estimate, estimate_of};
-use crate::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, FrontEndError};
+use crate::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig, FrontEndError, MAX_FEATURES};
 use crate::reorder::{Event, Pushed, Reorder};
 use ego_ekf::events::{JoltConfig, JoltContext, JoltEvent, JoltMonitor};
 use ego_ekf::surface::{MapError, SurfaceModel};
@@ -264,7 +264,11 @@ pub type Estimator<'b> =
 /// least [`MIN_SCALE_WINDOW`], and at least the configuration's
 /// `scale.robust.min_count`, checked by [`EstimatorWith::configure`]); `P`
 /// is called around each part's work ([`Probe`]; [`NoProbe`], the default,
-/// does nothing). Smaller capacities are refused at compile time:
+/// does nothing); `FEATURES` features per camera frame in the camera path
+/// ([`FrontEnd`]: default [`MAX_FEATURES`], at least
+/// [`crate::frontend::MIN_FEATURES`]; a 160x120 camera with
+/// [`FrontEndConfig::new`] tracks at most 50). Smaller capacities are
+/// refused at compile time:
 ///
 /// ```compile_fail
 /// use traction::estimator::EstimatorWith;
@@ -284,13 +288,14 @@ pub struct EstimatorWith<
     const JOLTS: usize,
     const SCALE: usize,
     P: Probe = NoProbe,
+    const FEATURES: usize = MAX_FEATURES,
 > {
     ekf: EgoEkf,
     odometry: DiffDriveOdometry,
     scale: ScalePipeline<TRAJECTORY, SCALE>,
     surface: Option<SurfaceModel>,
     jolts: JoltMonitor<JOLTS>,
-    frontend: Option<FrontEnd<'b>>,
+    frontend: Option<FrontEnd<'b, FEATURES>>,
     wheel_distrust: Option<f32>,
     reorder: Reorder<REORDER>,
     pending: Deque<Processed, 4>,
@@ -301,13 +306,19 @@ pub struct EstimatorWith<
     probe: P,
 }
 
-impl<'b, const REORDER: usize, const TRAJECTORY: usize, const JOLTS: usize, const SCALE: usize>
-    EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, NoProbe>
+impl<
+    'b,
+    const REORDER: usize,
+    const TRAJECTORY: usize,
+    const JOLTS: usize,
+    const SCALE: usize,
+    const FEATURES: usize,
+> EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, NoProbe, FEATURES>
 {
     /// Builds the estimator; `frontend` is the camera path, if a camera is fitted.
     pub fn new(
         config: &EstimatorConfig,
-        frontend: Option<FrontEnd<'b>>,
+        frontend: Option<FrontEnd<'b, FEATURES>>,
     ) -> Result<Self, EstimatorError> {
         let mut e = Self::unconfigured();
         e.configure(config)?;
@@ -347,7 +358,8 @@ impl<
     const JOLTS: usize,
     const SCALE: usize,
     P: Probe,
-> EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, P>
+    const FEATURES: usize,
+> EstimatorWith<'b, REORDER, TRAJECTORY, JOLTS, SCALE, P, FEATURES>
 {
     /// The capacities' lower bounds, checked when the type is used.
     const CAPACITIES: () = assert!(
@@ -425,7 +437,7 @@ impl<
         self.configured
     }
 
-    /// Fits the camera path: built by [`FrontEnd::new`] from `config` and
+    /// Fits the camera path: built by [`FrontEnd::with_capacity`] from `config` and
     /// the caller's `buffers`, then moved in; on an error the estimator has
     /// no camera path.
     pub fn fit_frontend(
@@ -434,7 +446,7 @@ impl<
         buffers: FrontEndBuffers<'b>,
     ) -> Result<(), FrontEndError> {
         self.frontend = None;
-        self.frontend = Some(FrontEnd::new(config, buffers)?);
+        self.frontend = Some(FrontEnd::with_capacity(config, buffers)?);
         Ok(())
     }
 
@@ -873,7 +885,7 @@ impl<
     }
 
     /// The camera path, if fitted.
-    pub fn frontend(&self) -> Option<&FrontEnd<'b>> {
+    pub fn frontend(&self) -> Option<&FrontEnd<'b, FEATURES>> {
         self.frontend.as_ref()
     }
 

@@ -48,9 +48,14 @@ use vslam_core::pyramid::{Pyramid, storage_bytes};
 use vslam_core::scale::CameraMotion;
 use vslam_core::{Reject, SampleClock, SampleCounts, Timestamp};
 
-/// Most features tracked between two frames; [`FrontEndConfig::new`] asks
-/// for fewer below 320x240 ([`features_for_frame`]).
+/// Most features tracked between two frames: the default capacity of
+/// [`FrontEnd`]; [`FrontEndConfig::new`] asks for fewer below 320x240
+/// ([`features_for_frame`]).
 pub const MAX_FEATURES: usize = 200;
+
+/// The smallest feature capacity of a [`FrontEnd`]: the four point pairs a
+/// homography needs.
+pub const MIN_FEATURES: usize = 4;
 
 /// Points tracked per call of the tracker (the results live on the stack).
 const TRACK_BATCH: usize = 16;
@@ -88,7 +93,8 @@ pub struct FrontEndConfig {
     /// Tracker settings.
     pub lk: LkConfig,
     /// Most corners detected on a frame (and so features tracked from it),
-    /// `1..=`[`MAX_FEATURES`] (larger values act as [`MAX_FEATURES`]).
+    /// `1..=FEATURES`, the front end's capacity (larger values act as
+    /// `FEATURES`, by default [`MAX_FEATURES`]).
     pub max_features: usize,
     /// Corner detector settings.
     pub corners: CornerConfig,
@@ -299,17 +305,31 @@ pub struct FrameStats {
     pub pure_rotation: bool,
 }
 
-/// The camera path.
-pub struct FrontEnd<'b> {
+/// The camera path, for up to `FEATURES` features per frame (default
+/// [`MAX_FEATURES`], at least [`MIN_FEATURES`], and at least the
+/// configuration's `min_tracks`, checked by [`FrontEnd::with_capacity`]): its feature
+/// list and RANSAC scratch, and the corners and point pairs on the stack of
+/// [`FrontEnd::process`], are that long. A smaller capacity does not compile:
+///
+/// ```compile_fail
+/// use traction::frontend::FrontEnd;
+/// let _ = FrontEnd::<'static, 3>::CAPACITY;
+/// ```
+///
+/// ```
+/// use traction::frontend::FrontEnd;
+/// assert_eq!(FrontEnd::<'static, 4>::CAPACITY, 4);
+/// ```
+pub struct FrontEnd<'b, const FEATURES: usize = MAX_FEATURES> {
     config: FrontEndConfig,
     buffers: FrontEndBuffers<'b>,
     tracker: Tracker,
-    ransac: HomographyRansac<MAX_FEATURES>,
+    ransac: HomographyRansac<FEATURES>,
     prior: NormalPrior,
     clock: SampleClock,
     /// The reference frame's features; after a used pair, its inliers
     /// where they are in the pair's second frame.
-    points: HVec<Vec2, MAX_FEATURES>,
+    points: HVec<Vec2, FEATURES>,
     /// Frames whose corners were detected.
     detections: u32,
     counts: SampleCounts,
@@ -325,11 +345,35 @@ pub struct FrontEnd<'b> {
 }
 
 impl<'b> FrontEnd<'b> {
-    /// Checks the buffers and the settings.
+    /// Checks the buffers and the settings: a front end of the default
+    /// capacity, [`MAX_FEATURES`] ([`FrontEnd::with_capacity`] for another).
     pub fn new(
         config: FrontEndConfig,
         buffers: FrontEndBuffers<'b>,
     ) -> Result<Self, FrontEndError> {
+        Self::with_capacity(config, buffers)
+    }
+}
+
+impl<'b, const FEATURES: usize> FrontEnd<'b, FEATURES> {
+    /// The feature capacity, `FEATURES`; using a front end (or this) with
+    /// less than [`MIN_FEATURES`] does not compile.
+    pub const CAPACITY: usize = {
+        assert!(
+            FEATURES >= MIN_FEATURES,
+            "front-end feature capacity below MIN_FEATURES"
+        );
+        FEATURES
+    };
+
+    /// Checks the buffers and the settings (`min_tracks` at most `FEATURES`).
+    pub fn with_capacity(
+        config: FrontEndConfig,
+        buffers: FrontEndBuffers<'b>,
+    ) -> Result<Self, FrontEndError> {
+        if config.min_tracks > Self::CAPACITY {
+            return Err(FrontEndError::BadConfig);
+        }
         let need = FrontEndBuffers::sizes(
             config.width,
             config.height,
@@ -421,7 +465,7 @@ impl<'b> FrontEnd<'b> {
             Ok(dt) => dt.is_none(),
             Err(Reject::Gap) => {
                 // Too long since the last frame: start over from this one.
-                let mut corners = [Corner::default(); MAX_FEATURES];
+                let mut corners = [Corner::default(); FEATURES];
                 let n = self.corners_of(image, &mut corners);
                 self.remember(t, image);
                 self.set_corners(corners.get(..n).unwrap_or(&[]));
@@ -442,7 +486,7 @@ impl<'b> FrontEnd<'b> {
             self.remember(t, image);
             return motion;
         }
-        let mut corners = [Corner::default(); MAX_FEATURES];
+        let mut corners = [Corner::default(); FEATURES];
         let n = self.corners_of(image, &mut corners);
         if motion.is_err() && self.bridges(t, n) {
             // An unusable frame: the reference stays, and the next good frame
@@ -499,8 +543,8 @@ impl<'b> FrontEnd<'b> {
         if self.points.len() < self.config.min_tracks {
             return Err(Reject::LowQuality);
         }
-        let mut p1: HVec<Vec2, MAX_FEATURES> = HVec::new();
-        let mut p2: HVec<Vec2, MAX_FEATURES> = HVec::new();
+        let mut p1: HVec<Vec2, FEATURES> = HVec::new();
+        let mut p2: HVec<Vec2, FEATURES> = HVec::new();
         {
             let prev_view = ImageView::packed(self.buffers.previous_frame, w, h)
                 .map_err(|_| Reject::OutOfRange)?;
@@ -528,7 +572,7 @@ impl<'b> FrontEnd<'b> {
         if p1.len() < self.config.min_tracks {
             return Err(Reject::LowQuality);
         }
-        let mut mask = [false; MAX_FEATURES];
+        let mut mask = [false; FEATURES];
         let mask = mask.get_mut(..p1.len()).ok_or(Reject::Degenerate)?;
         let (report, dec) = fit_pairs(
             &mut self.ransac,

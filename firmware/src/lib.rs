@@ -5,11 +5,13 @@
 //! [`budget`] turns the measured instructions per call into the loop's CPU
 //! budget. [`sample`], [`frames`] and [`replay`] are target-independent (the host check includes
 //! them by `#[path]`); [`systick`], [`stack`] and [`meter`] are the
-//! Cortex-M measurement.
+//! Cortex-M measurement; [`guard`] turns a stack overflow into a reported
+//! failure.
 #![no_std]
 
 pub mod budget;
 pub mod frames;
+pub mod guard;
 pub mod meter;
 pub mod replay;
 pub mod sample;

@@ -190,13 +190,6 @@ fn estimator_memory(out: &mut Out, meter: &Meter) {
         "estimator stack_peak {peak} limit {}",
         meter.estimator_limit
     );
-    let camera = meter.stack.get(Step::EstCamera.index()).copied();
-    let _ = writeln!(
-        out,
-        "estimator stack_process_camera {} limit {}",
-        camera.unwrap_or(0),
-        meter.estimator_limit
-    );
     let [frame, previous, current, scratch] = FE_SIZES;
     let buffers = frame + previous + current + scratch * size_of::<f32>();
     let estimator = size_of::<Estimator<'static>>();
@@ -213,14 +206,28 @@ const RUN_PAINT: usize = 1024 * 1024;
 
 #[entry]
 fn main() -> ! {
-    let run_top = traction_firmware::stack::paint_depth(RUN_PAINT);
+    let core = cortex_m::Peripherals::take();
+    // The guard first: the painting below stops at its top.
+    if let Some(core) = core {
+        let mut core = core;
+        traction_firmware::guard::enable(&mut core.MPU, &mut core.SCB);
+        run(core)
+    }
     let mut out = Out {
         host: hio::hstdout().ok(),
         line: [0; 256],
         len: 0,
     };
-    let Some(mut core) = cortex_m::Peripherals::take() else {
-        finish(&mut out, false)
+    finish(&mut out, false)
+}
+
+/// The run, with the stack guard on.
+fn run(mut core: cortex_m::Peripherals) -> ! {
+    let run_top = traction_firmware::stack::paint_depth(RUN_PAINT);
+    let mut out = Out {
+        host: hio::hstdout().ok(),
+        line: [0; 256],
+        len: 0,
     };
     systick::start(&mut core.SYST);
     meter::calibrate();
@@ -347,18 +354,10 @@ fn main() -> ! {
     let _ = writeln!(
         out,
         "stack whole_run {} from_main {}",
-        cortex_m_rt_stack_start().saturating_sub(lowest),
+        traction_firmware::guard::stack_start().saturating_sub(lowest),
         run_top.saturating_sub(lowest)
     );
     finish(&mut out, true)
-}
-
-/// The reset stack pointer (`_stack_start` of cortex-m-rt's `link.x`).
-fn cortex_m_rt_stack_start() -> usize {
-    unsafe extern "C" {
-        static _stack_start: u32;
-    }
-    core::ptr::addr_of!(_stack_start) as usize
 }
 
 /// Ends the run if an estimator call went past its stack limit.

@@ -165,12 +165,16 @@ impl Step {
         }
     }
 
-    /// A call of `traction::Estimator` held to the estimator's stack limit
-    /// (`process_camera` runs the front end, whose stack is reported apart).
+    /// A call of `traction::Estimator`, held to the estimator's stack limit
+    /// (`process_camera` with the front end it runs).
     pub const fn is_estimator(self) -> bool {
         matches!(
             self,
-            Step::EstConfigure | Step::EstOffer | Step::EstPoll | Step::EstCameraMotion
+            Step::EstConfigure
+                | Step::EstOffer
+                | Step::EstPoll
+                | Step::EstCameraMotion
+                | Step::EstCamera
         )
     }
 }

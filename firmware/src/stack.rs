@@ -11,7 +11,7 @@
 
 /// Bytes painted below the stack pointer; deeper use is reported as "at least".
 pub const DEPTH: usize = 48 * 1024;
-/// Bytes painted below a front-end call (its pyramids and LK on the stack).
+/// Bytes painted below a front-end call.
 pub const FRONTEND_PAINT: usize = 160 * 1024;
 /// Stack limit of one `traction::Estimator` call (issue 21: 16 KB);
 /// `FIRMWARE_ESTIMATOR_STACK_LIMIT=<bytes>` at build time sets another (a
@@ -22,7 +22,7 @@ pub const ESTIMATOR_LIMIT: usize = match option_env!("FIRMWARE_ESTIMATOR_STACK_L
 };
 
 /// A decimal number; 0 for anything else.
-const fn parse(s: &str) -> usize {
+pub(crate) const fn parse(s: &str) -> usize {
     let b = s.as_bytes();
     let mut i = 0;
     let mut n = 0usize;
@@ -58,15 +58,42 @@ pub fn paint() -> usize {
     paint_depth(DEPTH)
 }
 
-/// Paints `[sp - depth, sp)`; gives `sp`.
+/// The lowest painted word below `top`: `depth` bytes down, but not into
+/// the stack guard ([`crate::guard::floor`]).
+#[inline(always)]
+fn bottom(top: usize, depth: usize) -> usize {
+    top.saturating_sub(depth)
+        .max(crate::guard::floor())
+        .min(top)
+}
+
+/// Paints `[sp - depth, sp)` (not below the guard); gives `sp`.
 #[inline(always)]
 pub fn paint_depth(depth: usize) -> usize {
     let top = sp() & !3;
-    let mut a = top - depth;
+    let mut a = bottom(top, depth);
+    if cfg!(debug_assertions) {
+        // A debug build calls `write_volatile` out of line, and its frame
+        // would land on the words being painted: paint in assembly.
+        // SAFETY: as below.
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "cmp {a}, {top}",
+                "bhs 3f",
+                "str {v}, [{a}], #4",
+                "b 2b",
+                "3:",
+                a = inout(reg) a,
+                top = in(reg) top,
+                v = in(reg) PATTERN,
+                options(nostack),
+            )
+        };
+    }
     while a < top {
-        // SAFETY: the words below the stack pointer are free (no interrupts,
-        // no other thread); the RAM region is 4 MiB and the stack is far
-        // from .data and .bss.
+        // SAFETY: the words below the stack pointer and above the guard
+        // are free stack (no interrupts, no other thread).
         unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
         a += 4;
     }
@@ -82,7 +109,7 @@ pub fn used(top: usize) -> usize {
 /// Bytes below `top` (from [`paint_depth`] with `depth`) that were written since.
 #[inline(always)]
 pub fn used_depth(top: usize, depth: usize) -> usize {
-    let mut a = top - depth;
+    let mut a = bottom(top, depth);
     while a < top {
         // SAFETY: the same painted words, read back.
         if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {

@@ -44,7 +44,7 @@ pub(super) struct AffineFit {
 /// Refines from the translational result `start`; `None` when the warped
 /// window leaves the image or the Hessian is singular.
 pub(super) fn refine(
-    tpl: &Template,
+    tpl: &Template<'_>,
     image: &ImageView<'_>,
     start: Vec2,
     max_iterations: u32,
@@ -96,10 +96,10 @@ pub(super) fn refine(
 
 /// Calls `f(sd, t)` with the steepest-descent vector and the template value
 /// of every window pixel, in row-major order.
-fn for_each_sd(tpl: &Template, s: f32, mut f: impl FnMut(Vector6<f32>, f32)) {
+fn for_each_sd(tpl: &Template<'_>, s: f32, mut f: impl FnMut(Vector6<f32>, f32)) {
     let n = tpl.n;
     let half = (n / 2) as f32;
-    let rows = tpl.t.iter().zip(&tpl.gx).zip(&tpl.gy).take(n);
+    let rows = tpl.t.iter().zip(tpl.gx.iter()).zip(tpl.gy.iter()).take(n);
     for (i, ((t, gx), gy)) in rows.enumerate() {
         let y = (i as f32 - half) * s;
         for (j, ((&t, &gx), &gy)) in t.iter().zip(gx).zip(gy).take(n).enumerate() {
@@ -112,7 +112,7 @@ fn for_each_sd(tpl: &Template, s: f32, mut f: impl FnMut(Vector6<f32>, f32)) {
 /// `sum sd (J(W(x)) - T(x))` and `sum |J(W(x)) - T(x)|` at the warp `(c, A)`,
 /// or `None` when the warped window leaves the image.
 fn evaluate(
-    tpl: &Template,
+    tpl: &Template<'_>,
     image: &ImageView<'_>,
     c: Vec2,
     a: &Matrix2<f32>,

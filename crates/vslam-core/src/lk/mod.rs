@@ -40,10 +40,12 @@
 //! gradients are built once per point and level (the patch streams through
 //! three rows); only the moving window is resampled per iteration.
 //!
-//! No heap and no panic: one template buffer for windows up to
-//! [`MAX_WINDOW`]² lives on the stack per call (about 12.6 KiB with the
-//! border-window scratch), results go into caller slices, any input point
-//! (NaN, infinite, far outside) yields a status.
+//! No heap and no panic: one template buffer lives on the stack per call,
+//! its rows sized for the configured window (the smallest of 7, 11, 21 and
+//! [`MAX_WINDOW`] rows that holds it: about 3.6 KiB with the patch and row
+//! scratch for a 7x7 window, 12.6 KiB for [`MAX_WINDOW`]), results go into
+//! caller slices, any input point (NaN, infinite, far outside) yields a
+//! status.
 //!
 //! - [`sample`]: bilinear window sampling (single windows and pixels),
 //! - `window`: the row machinery of the tracker's inner loops,

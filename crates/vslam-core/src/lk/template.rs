@@ -25,14 +25,35 @@ fn taps(p: &Row) -> Option<Taps<'_>> {
     ))
 }
 
+/// The rows of a template for windows up to `R` pixels high: the storage a
+/// [`Template`] borrows, on the stack of the tracker's call and sized for the
+/// configured window (`3 * R * 128` bytes: 2,688 for 7x7, 11,904 for
+/// [`MAX_WINDOW`]).
+pub(super) struct TemplateRows<const R: usize> {
+    t: [TplRow; R],
+    gx: [TplRow; R],
+    gy: [TplRow; R],
+}
+
+impl<const R: usize> TemplateRows<R> {
+    pub(super) fn zeroed() -> Self {
+        TemplateRows {
+            t: [[0.0; TPL]; R],
+            gx: [[0.0; TPL]; R],
+            gy: [[0.0; TPL]; R],
+        }
+    }
+}
+
 /// The template window of one point at one level: intensities, Scharr
 /// gradients (zero past column `n`, so padded columns add nothing) and the
-/// inverse of the spatial gradient matrix `G`; rows are [`Row`]s.
-pub(super) struct Template {
+/// inverse of the spatial gradient matrix `G`; rows are [`Row`]s. Windows up
+/// to as many rows as its borrowed [`TemplateRows`] have.
+pub(super) struct Template<'r> {
     pub(super) n: usize,
-    pub(super) t: [TplRow; MAX_WINDOW],
-    pub(super) gx: [TplRow; MAX_WINDOW],
-    pub(super) gy: [TplRow; MAX_WINDOW],
+    pub(super) t: &'r mut [TplRow],
+    pub(super) gx: &'r mut [TplRow],
+    pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
     mask: TplRow,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
@@ -61,15 +82,16 @@ pub(super) struct Mismatch {
     pub(super) abs: f32,
 }
 
-impl Template {
-    /// Storage for one template, filled per point and level by [`Template::fill`]
-    /// (one instance serves a whole batch: no per-point zeroing of 12 KiB).
-    pub(super) fn empty() -> Self {
+impl<'r> Template<'r> {
+    /// One template in `rows`, filled per point and level by [`Template::fill`]
+    /// (one instance serves a whole batch: no per-point zeroing).
+    pub(super) fn empty<const R: usize>(rows: &'r mut TemplateRows<R>) -> Self {
+        let TemplateRows { t, gx, gy } = rows;
         Template {
             n: 0,
-            t: [[0.0; TPL]; MAX_WINDOW],
-            gx: [[0.0; TPL]; MAX_WINDOW],
-            gy: [[0.0; TPL]; MAX_WINDOW],
+            t,
+            gx,
+            gy,
             mask: [0.0; TPL],
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; 3],
@@ -96,7 +118,7 @@ impl Template {
         let Some(src) = SourceRows::new(image, x, y, m, m, clamp) else {
             return Err(TemplateFault::OutOfBounds);
         };
-        if n > MAX_WINDOW {
+        if n > MAX_WINDOW || n > self.t.len() {
             return Err(TemplateFault::OutOfBounds);
         }
         self.n = n;
