@@ -471,10 +471,13 @@ pub fn overruns(config: &RecoveryConfig, evidence: &Evidence<'_>) -> bool {
     if !(evidence.wheel_rim_speed >= config.overrun_min_speed && v.is_finite() && w.is_finite()) {
         return false;
     }
+    // Against the wheels' direction it is the filter's own speed that counts:
+    // a filter near rest with the other sign is not overrunning wheels that
+    // spin (a lifted robot's free wheels).
     let excess = if v * w >= 0.0 {
         v.abs() - w.abs()
     } else {
-        (v - w).abs()
+        v.abs()
     };
     let var = evidence.filter_var + evidence.wheel_std * evidence.wheel_std;
     // NaN compares false: no reset on a non-finite comparison.

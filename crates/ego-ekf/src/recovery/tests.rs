@@ -247,6 +247,15 @@ fn without_flow_a_filter_overrunning_turning_wheels_is_reset_to_them() {
     };
     assert!(!overruns(&c, &frozen));
     assert_eq!(decide(&c, &w, &frozen), Verdict::NoTrustedSource);
+    // A filter near rest with the other sign while the wheels spin (a
+    // lifted robot's free wheels): not an overrun.
+    let lifted = Evidence {
+        filter_velocity: Vector2::new(-0.01, 0.0),
+        wheel_speed: 0.4,
+        wheel_rim_speed: 0.4,
+        ..ahead
+    };
+    assert!(!overruns(&c, &lifted));
     // Within the wheels' gate, or slower than them: not an overrun.
     let close = Evidence {
         filter_velocity: Vector2::new(0.33, 0.0),
