@@ -248,28 +248,58 @@ impl EgoEkf {
     /// leaves the filter as it was.
     pub fn reset(&mut self, config: FilterConfig) -> Result<(), ConfigError> {
         config.check()?;
-        self.x = Self::nominal(&config);
-        self.p.fill_with_identity();
-        self.grip = config.grip;
-        self.initialised = false;
-        self.initialiser = Initialiser::new();
-        self.imu_clock = SampleClock::new(config.imu.max_dt_ns);
-        self.imu_counts = SampleCounts::new();
-        self.last_step = None;
-        self.still = StillDetector::new();
-        self.zupt = ZuptFusion::new();
-        self.floor = FloorFusion::new();
-        self.wheel = Self::wheel_fusion(&config);
-        self.flow = Self::flow_fusion(&config);
-        self.recovery = RecoveryCounts::new();
-        self.refutation = Refutation::new();
-        self.distrust = WheelDistrust::new();
-        self.gaps = GapCounts::new();
-        self.gap_odometry = GapOdometry::new();
-        self.clone = CloneUse::Still;
-        self.camera = CameraFusion::new();
-        self.last_imu = None;
-        self.config = config;
+        // Every field by name: a field added to the filter and not reset
+        // here does not compile.
+        let EgoEkf {
+            config: c,
+            x,
+            p,
+            grip,
+            initialised,
+            initialiser,
+            imu_clock,
+            imu_counts,
+            last_step,
+            still,
+            zupt,
+            floor,
+            wheel,
+            flow,
+            recovery,
+            refutation,
+            distrust,
+            weights,
+            vibration,
+            gaps,
+            gap_odometry,
+            clone,
+            camera,
+            last_imu,
+        } = self;
+        *x = Self::nominal(&config);
+        p.fill_with_identity();
+        *grip = config.grip;
+        *initialised = false;
+        *initialiser = Initialiser::new();
+        *imu_clock = SampleClock::new(config.imu.max_dt_ns);
+        *imu_counts = SampleCounts::new();
+        *last_step = None;
+        *still = StillDetector::new();
+        *zupt = ZuptFusion::new();
+        *floor = FloorFusion::new();
+        *wheel = Self::wheel_fusion(&config);
+        *flow = Self::flow_fusion(&config);
+        *recovery = RecoveryCounts::new();
+        *refutation = Refutation::new();
+        *distrust = WheelDistrust::new();
+        *weights = SensorWeights::FULL;
+        *vibration = Vibration::new();
+        *gaps = GapCounts::new();
+        *gap_odometry = GapOdometry::new();
+        *clone = CloneUse::Still;
+        *camera = CameraFusion::new();
+        *last_imu = None;
+        *c = config;
         Ok(())
     }
 
