@@ -812,8 +812,10 @@ impl<
                     self.ekf.fuse_wheel(&step.rates)
                 });
                 if let (Ok(inn), Some(s)) = (&fused, self.surface.as_mut()) {
-                    let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, inn.gated);
-                    let _ = s.on_wheel_slip(t, inn.forward, inn.speed, inn.gated);
+                    // The learners read the forward row: gated when it was not fused.
+                    let forward_gated = !inn.forward_fused;
+                    let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, forward_gated);
+                    let _ = s.on_wheel_slip(t, inn.forward, inn.speed, forward_gated);
                 }
                 fused
             }

@@ -730,7 +730,7 @@ impl EgoEkf {
             });
         }
         if let Ok(inn) = out.as_mut()
-            && inn.gated
+            && !inn.forward_fused
             && self.wheel.watch().run().due(&self.config.wheel)
         {
             let verdict = self.re_examine(rates, inn);

@@ -37,8 +37,9 @@ fn config() -> Config {
 proptest! {
     #![proptest_config(config())]
 
-    /// The fast wheel update gates like the dense formulas and, fused or
-    /// gated, leaves the state and covariance of the `f64` textbook update.
+    /// The fast wheel update gates like the dense formulas (a failed
+    /// differential row alone keeps the forward row) and, fused or gated,
+    /// leaves the state and covariance of the `f64` textbook update.
     #[test]
     fn fast_wheel_update_equals_dense_reference(
         seed in any::<u64>(),
@@ -67,6 +68,8 @@ proptest! {
         // Cases within 0.1 % of the gate may fall either way in f32.
         prop_assume!((ratio(0) - 1.0).abs() > 1e-3 && (ratio(1) - 1.0).abs() > 1e-3);
         let gated = ratio(0) > 1.0 || ratio(1) > 1.0;
+        // A failed differential row alone keeps the forward row.
+        let forward_fused = ratio(0) < 1.0;
         // The vertical row's Huber weight: its noise raised until its
         // innovation is at `VERTICAL_HUBER` standard deviations.
         let mut m = m;
@@ -77,8 +80,14 @@ proptest! {
         let (mut x, mut p) = (x0, p0);
         let out = update(&mut x, &mut p, &rows, gate).unwrap();
         prop_assert_eq!(out.gated, gated);
+        prop_assert_eq!(out.forward_fused, forward_fused);
         prop_assert!((f64::from(out.forward_var) - s[(0, 0)]).abs() <= 1e-4 * s[(0, 0)]);
-        let (x_true, p_true, nis) = if gated {
+        let (x_true, p_true, nis) = if forward_fused && gated {
+            let c = m.select([0, 2, 3]).unwrap();
+            let (mut xd, mut pd) = (x0, p0);
+            gated_update_dense(&mut xd, &mut pd, &c, None).unwrap();
+            oracle(&x0, &p0, &c)
+        } else if gated {
             let c = m.select([2, 3]).unwrap();
             let (mut xd, mut pd) = (x0, p0);
             gated_update_dense(&mut xd, &mut pd, &c, None).unwrap();

@@ -3,9 +3,12 @@
 //!
 //! The forward and differential rows are each tested with the grip's 1-DOF
 //! chi-square gate (`GripParams::forward_gate`); when either fails the wheels
-//! slipped and only the lateral and vertical non-holonomic rows are fused,
-//! and the sample is counted as [`Reject::Gated`]. The forward innovation and
-//! its variance are returned either way, for the surface model's grip learning.
+//! slipped and the sample is counted as [`Reject::Gated`]. The lateral and
+//! vertical non-holonomic rows are fused either way, and the forward row too
+//! when it passed and only the differential row failed (the body did not
+//! turn as the wheels did: [`crate::wheel::update`]). The forward innovation
+//! and its variance are returned either way, for the surface model's grip
+//! learning.
 //!
 //! A sample is fused at the filter's time: one whose time stamp lies more than
 //! the configured age before the filter's latest IMU time measured a velocity
@@ -13,7 +16,8 @@
 //! of it, a velocity the state has not reached yet (the IMU lags or went
 //! silent: [`Reject::NotReady`]). Both are counted and change nothing.
 //!
-//! Consecutive gated samples form a [`crate::recovery::GatedRun`], watched
+//! Consecutive samples whose forward row was not fused form a
+//! [`crate::recovery::GatedRun`], watched
 //! by [`WheelWatch`]; the filter re-examines its velocity when the run is
 //! due (see [`crate::recovery`]).
 //!
@@ -42,8 +46,12 @@ pub struct WheelInnovation {
     pub forward: f32,
     /// Its predicted variance `H P H^T + R`, (m/s)^2.
     pub forward_var: f32,
-    /// Whether the forward rows failed the grip's gate (wheels slipped).
+    /// Whether the forward or the differential row failed the grip's gate
+    /// (the wheels slipped).
     pub gated: bool,
+    /// Whether the forward row was fused (it passed the gate, and so did
+    /// the differential row or the differential row alone failed).
+    pub forward_fused: bool,
     /// The wheels' rolling forward speed `(r_l w_l + r_r w_r) / 2`, m/s
     /// (before the floor's expected slip; the sample's [`WheelStatus`]
     /// holds the speed after it).
@@ -194,7 +202,7 @@ impl WheelFusion {
         let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
-            Ok(inn) if inn.gated => self.watch.gated(recovery, rates.t(), inn.forward),
+            Ok(inn) if !inn.forward_fused => self.watch.gated(recovery, rates.t(), inn.forward),
             Ok(_) => self.watch.fused(recovery, rates.t()),
             Err(_) => {}
         }
@@ -286,6 +294,7 @@ impl WheelFusion {
             forward: u.forward,
             forward_var: u.forward_var,
             gated: u.gated,
+            forward_fused: u.forward_fused,
             speed,
             recovery: None,
         };

@@ -13,8 +13,14 @@
 //! one mirror: no 36x36 temporary.
 //!
 //! The gate: the forward and the differential rows are each tested with the
-//! grip's 1-DOF chi-square gate on their own variance under the prior `P`;
-//! when either fails, only the lateral and vertical rows are fused.
+//! grip's 1-DOF chi-square gate on their own variance under the prior `P`.
+//! A failed forward row means the wheels slipped along their track (spun,
+//! stuck, lifted): neither it nor the differential row is fused. A failed
+//! differential row alone means the body did not turn as the wheels did (a
+//! skid steer turning in place on snow, one wheel spinning a little): the
+//! forward row that passed its gate is still fused, so the wheels' mean
+//! speed keeps holding the velocity. The lateral and vertical rows are
+//! always fused.
 //!
 //! The vertical row has a Huber-type weight: an innovation beyond
 //! [`VERTICAL_HUBER`] standard deviations has its noise raised until it is
@@ -30,7 +36,7 @@
 //! (`crate::update::fuse_prepared_holding`), so a floor's slip that the
 //! expected slip does not yet explain cannot be learned as a smaller wheel.
 
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 use vslam_core::Reject;
 
 use crate::state::{Covariance, DIM, NominalState, RAD_L, RAD_R};
@@ -60,8 +66,11 @@ pub struct WheelUpdate {
     /// Its predicted variance under the prior, (m/s)^2.
     pub differential_var: f32,
     /// Whether the forward or the differential row failed the gate (then
-    /// only the lateral and vertical rows were fused).
+    /// the differential row was not fused).
     pub gated: bool,
+    /// Whether the forward row was fused: it passed its gate and so did
+    /// the differential row, or the differential row alone failed.
+    pub forward_fused: bool,
 }
 
 /// Gates and fuses the wheel rows `rows` into `x` and `p` with the 1-DOF
@@ -96,26 +105,47 @@ pub fn update(
     if !(var_fwd > 0.0 && var_diff > 0.0) {
         return Err(Reject::Degenerate);
     }
-    let gated = forward * forward / var_fwd > forward_gate || diff * diff / var_diff > forward_gate;
-    if gated {
-        let mut pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
-        let s_c = s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned();
-        let y_c = rows.residual.fixed_rows::<2>(LATERAL).into_owned();
-        if rows.holds_radius() {
-            fuse_prepared_holding(x, p, &mut pht_c, &s_c, &y_c, None, &RADII)?;
-        } else {
-            fuse_prepared_holding(x, p, &mut pht_c, &s_c, &y_c, None, &[])?;
+    let forward_passes = forward * forward / var_fwd <= forward_gate;
+    let differential_passes = diff * diff / var_diff <= forward_gate;
+    let hold: &[usize] = if rows.holds_radius() { &RADII } else { &[] };
+    match (forward_passes, differential_passes) {
+        (true, true) => fuse_holding(x, p, &mut pht, &s, &rows.residual, hold)?,
+        (true, false) => {
+            // The forward, lateral and vertical rows.
+            const KEEP: [usize; 3] = [FORWARD, LATERAL, VERTICAL];
+            let mut pht_c = SMatrix::<f32, DIM, 3>::from_fn(|r, c| pht[(r, KEEP[c])]);
+            let s_c = SMatrix::<f32, 3, 3>::from_fn(|r, c| s[(KEEP[r], KEEP[c])]);
+            let y_c = SVector::<f32, 3>::from_fn(|r, _| rows.residual[KEEP[r]]);
+            fuse_holding(x, p, &mut pht_c, &s_c, &y_c, hold)?;
         }
-    } else if rows.holds_radius() {
-        fuse_prepared_holding(x, p, &mut pht, &s, &rows.residual, None, &RADII)?;
-    } else {
-        fuse_prepared_holding(x, p, &mut pht, &s, &rows.residual, None, &[])?;
+        _ => {
+            let mut pht_c: SMatrix<f32, DIM, 2> = pht.fixed_columns::<2>(LATERAL).into_owned();
+            let s_c = s.fixed_view::<2, 2>(LATERAL, LATERAL).into_owned();
+            let y_c = rows.residual.fixed_rows::<2>(LATERAL).into_owned();
+            fuse_holding(x, p, &mut pht_c, &s_c, &y_c, hold)?;
+        }
     }
     Ok(WheelUpdate {
         forward,
         forward_var: var_fwd,
         differential: diff,
         differential_var: var_diff,
-        gated,
+        gated: !(forward_passes && differential_passes),
+        forward_fused: forward_passes,
     })
+}
+
+/// [`fuse_prepared_holding`] with the radii held (`hold` = [`RADII`]) or not.
+fn fuse_holding<const M: usize>(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    pht: &mut SMatrix<f32, DIM, M>,
+    s: &SMatrix<f32, M, M>,
+    y: &SVector<f32, M>,
+    hold: &[usize],
+) -> Result<(), Reject> {
+    match hold {
+        [a, b] => fuse_prepared_holding(x, p, pht, s, y, None, &[*a, *b]).map(|_| ()),
+        _ => fuse_prepared_holding(x, p, pht, s, y, None, &[]).map(|_| ()),
+    }
 }
