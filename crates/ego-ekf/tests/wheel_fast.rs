@@ -17,7 +17,7 @@ use ego_ekf::reference::gated_update_dense;
 use ego_ekf::state::{DIM, ErrorState, KG, Quat, Vec3, rotate_local};
 use ego_ekf::update::mirror_upper_to_lower;
 use ego_ekf::wheel::model::{SUPPORT, VERTICAL, wheel_measurement, wheel_rows};
-use ego_ekf::wheel::update::{VERTICAL_HUBER, update};
+use ego_ekf::wheel::update::{MAX_VARIANCE_REDUCTION, VERTICAL_HUBER, update};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
 use random_update::{Rng, normalised_error, oracle, random_covariance, random_state, state_error};
@@ -62,8 +62,17 @@ proptest! {
             prop_assert!(m.h.column(j).iter().all(|v| *v == 0.0));
         }
         // The per-row gate, in f64.
-        let s = (m.h.cast::<f64>() * p0.cast::<f64>() * m.h.transpose().cast::<f64>())
-            + m.noise.cast::<f64>();
+        let mut m = m;
+        // No row's variance shrinks more than `MAX_VARIANCE_REDUCTION` times
+        // in one update: its noise is raised to the prior's share.
+        let prior = m.h.cast::<f64>() * p0.cast::<f64>() * m.h.transpose().cast::<f64>();
+        for i in 0..4 {
+            let floor = prior[(i, i)] / f64::from(MAX_VARIANCE_REDUCTION);
+            if f64::from(m.noise[(i, i)]) < floor {
+                m.noise[(i, i)] = floor as f32;
+            }
+        }
+        let s = prior + m.noise.cast::<f64>();
         let ratio = |r: usize| f64::from(m.residual[r]).powi(2) / s[(r, r)] / f64::from(gate);
         // Cases within 0.1 % of the gate may fall either way in f32.
         prop_assume!((ratio(0) - 1.0).abs() > 1e-3 && (ratio(1) - 1.0).abs() > 1e-3);
@@ -72,7 +81,6 @@ proptest! {
         let forward_fused = ratio(0) < 1.0;
         // The vertical row's Huber weight: its noise raised until its
         // innovation is at `VERTICAL_HUBER` standard deviations.
-        let mut m = m;
         let (y_v, huber2) = (f64::from(m.residual[VERTICAL]), f64::from(VERTICAL_HUBER).powi(2));
         if y_v * y_v > huber2 * s[(VERTICAL, VERTICAL)] {
             m.noise[(VERTICAL, VERTICAL)] += (y_v * y_v / huber2 - s[(VERTICAL, VERTICAL)]) as f32;

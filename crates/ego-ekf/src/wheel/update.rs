@@ -51,6 +51,13 @@ const _: () = assert!(VERTICAL == LATERAL + 1 && FORWARD == 0 && DIFFERENTIAL ==
 /// have their noise raised until they are at this many.
 pub const VERTICAL_HUBER: f32 = 3.0;
 
+/// The most one update may shrink a row's predicted variance: a row's
+/// noise is raised to at least its prior variance `H P H^T` over this. A
+/// filter that has lost its velocity (variance of hundreds of (m/s)^2)
+/// fusing a wheel row of 1e-4 (m/s)^2 would otherwise cancel seven digits,
+/// all of `f32`'s, and leave a covariance that is not positive definite.
+pub const MAX_VARIANCE_REDUCTION: f32 = 1.0e4;
+
 /// The radii's error-state entries, held on low-grip floors.
 const RADII: [usize; 2] = [RAD_L, RAD_R];
 
@@ -93,6 +100,14 @@ pub fn update(
     rows.p_ht_to(p, &mut pht);
     let mut s = rows.innovation_covariance(&pht);
     let [forward, diff, _, vertical] = rows.residual.data.0[0];
+    for (i, n) in rows.noise.iter().enumerate() {
+        if let Some(s_i) = s.get_mut((i, i)) {
+            let prior = *s_i - n;
+            if *n * MAX_VARIANCE_REDUCTION < prior {
+                *s_i = prior * (1.0 + 1.0 / MAX_VARIANCE_REDUCTION);
+            }
+        }
+    }
     if let Some(s_v) = s.get_mut((VERTICAL, VERTICAL)) {
         // Raise R so that y^2 / (H P H^T + R) = huber^2.
         let huber2 = VERTICAL_HUBER * VERTICAL_HUBER;
@@ -113,9 +128,16 @@ pub fn update(
         (true, false) => {
             // The forward, lateral and vertical rows.
             const KEEP: [usize; 3] = [FORWARD, LATERAL, VERTICAL];
-            let mut pht_c = SMatrix::<f32, DIM, 3>::from_fn(|r, c| pht[(r, KEEP[c])]);
-            let s_c = SMatrix::<f32, 3, 3>::from_fn(|r, c| s[(KEEP[r], KEEP[c])]);
-            let y_c = SVector::<f32, 3>::from_fn(|r, _| rows.residual[KEEP[r]]);
+            let pick = |k: usize| KEEP.get(k).copied().unwrap_or(FORWARD);
+            let mut pht_c = SMatrix::<f32, DIM, 3>::from_fn(|r, c| {
+                pht.get((r, pick(c))).copied().unwrap_or(0.0)
+            });
+            let s_c = SMatrix::<f32, 3, 3>::from_fn(|r, c| {
+                s.get((pick(r), pick(c))).copied().unwrap_or(0.0)
+            });
+            let y_c = SVector::<f32, 3>::from_fn(|r, _| {
+                rows.residual.get(pick(r)).copied().unwrap_or(0.0)
+            });
             fuse_holding(x, p, &mut pht_c, &s_c, &y_c, hold)?;
         }
         _ => {
