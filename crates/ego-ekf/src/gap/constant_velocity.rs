@@ -149,6 +149,7 @@ pub fn bridge_gap(
 mod tests {
     use super::*;
     use crate::config::RobotPrior;
+    use crate::gap::test_support::{positive_definite, random_covariance};
     use crate::state::{DIM, Quat};
 
     fn state() -> NominalState {
@@ -172,21 +173,7 @@ mod tests {
     }
 
     fn covariance() -> Covariance {
-        let mut s = 5u32;
-        let mut a = Covariance::zeros();
-        for v in a.iter_mut() {
-            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            *v = (s >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
-        }
-        let mut p = a * a.transpose() * 1e-4 + Covariance::identity() * 1e-6;
-        symmetrize(&mut p);
-        p
-    }
-
-    fn positive_definite(p: &Covariance) -> bool {
-        let p64 = p.cast::<f64>();
-        let d = p64.diagonal().map(|v| 1.0 / v.sqrt());
-        p64.component_mul(&(d * d.transpose())).cholesky().is_some()
+        random_covariance(5)
     }
 
     fn heading(q: &Quat) -> f32 {

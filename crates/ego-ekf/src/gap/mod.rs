@@ -26,6 +26,9 @@ pub mod dead_reckoning;
 pub mod odometry;
 pub mod wheel_bridge;
 
+#[cfg(test)]
+mod test_support;
+
 pub use constant_velocity::bridge_gap;
 pub use dead_reckoning::{DeadReckoning, WheelGeometry};
 pub use odometry::GapOdometry;

@@ -249,6 +249,7 @@ pub fn bridge_with_wheels(
 mod tests {
     use super::*;
     use crate::config::RobotPrior;
+    use crate::gap::test_support::{positive_definite, random_covariance as covariance};
     use crate::state::{ErrorState, RAD};
 
     fn state() -> NominalState {
@@ -281,25 +282,6 @@ mod tests {
             assert!(d.step(&g, l, r, 0.02));
         }
         d
-    }
-
-    fn covariance(seed: u32) -> Covariance {
-        // A random symmetric positive definite matrix with a mix of scales.
-        let mut s = seed;
-        let mut a = Covariance::zeros();
-        for v in a.iter_mut() {
-            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            *v = (s >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
-        }
-        let mut p = a * a.transpose() * 1e-4 + Covariance::identity() * 1e-6;
-        symmetrize(&mut p);
-        p
-    }
-
-    fn positive_definite(p: &Covariance) -> bool {
-        let p64 = p.cast::<f64>();
-        let d = p64.diagonal().map(|v| 1.0 / v.sqrt());
-        p64.component_mul(&(d * d.transpose())).cholesky().is_some()
     }
 
     #[test]
