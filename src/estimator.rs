@@ -11,7 +11,9 @@
 //!   obstacle (a wheel collision event) go to the adverse-event memory;
 //! - wheel counts (or wheel angular rates, from a robot that reports those):
 //!   `wheel-odom` turns them into a body displacement and wheel rates; the EKF fuses the rates with the floor's grip (forward gated,
-//!   lateral and vertical always), the scale pipeline accumulates `Tw`, and
+//!   lateral and vertical always), the scale pipeline accumulates `Tw` of
+//!   the displacement corrected to the filter's learned radii and the
+//!   floor's expected slip ([`wheel_distance`]), and
 //!   the forward innovation teaches the surface model its floors;
 //! - flow reports: the EKF fuses the velocity with quality as noise, the
 //!   scale pipeline accumulates `To`.
@@ -79,6 +81,7 @@ use vslam_core::{Reject, RobotError, SampleCounts, Stream, StreamCounts, Timesta
 use wheel_odom::odometry::{DiffDriveOdometry, DiffDriveParams};
 
 pub mod probe;
+pub mod wheel_distance;
 
 /// Samples the ordering buffer holds ([`Estimator`]'s default).
 pub const REORDER_CAPACITY: usize = 64;
@@ -802,12 +805,20 @@ impl<
             // The first sample only anchors the counts.
             Ok(None) => Err(Reject::NotReady),
             Ok(Some(step)) => {
-                let _ = probed(&mut self.probe, Part::ScaleWheel, || {
-                    self.scale.push_wheel(&step.delta)
-                });
                 if let Some(s) = &self.surface {
                     self.ekf.set_grip(s.grip_params(t));
                 }
+                let params = self.odometry.params();
+                let delta = wheel_distance::corrected_delta(
+                    &step.delta,
+                    &step.rates,
+                    [params.left_radius(), params.right_radius()],
+                    self.ekf.wheel_radii(),
+                    self.ekf.grip().slip(),
+                );
+                let _ = probed(&mut self.probe, Part::ScaleWheel, || {
+                    self.scale.push_wheel(&delta)
+                });
                 let fused = probed(&mut self.probe, Part::FuseWheel, || {
                     self.ekf.fuse_wheel(&step.rates)
                 });

@@ -135,14 +135,18 @@ fn expected_slip_removes_the_carpet_bias() {
         "with: no bias at the end: {}",
         with.end
     );
+    // Learned within the run: the scale pipeline's wheel distance carries
+    // the same expected slip and learned radii, so the camera's translation
+    // does not pull the learner back towards the raw wheels (a quarter and
+    // a tenth: 0.32 and 0.19 of the bias without, measured without that).
     assert!(
-        with.late.abs() < 0.3 * without.late,
+        with.late.abs() < 0.1 * without.late,
         "with: {} against without: {}",
         with.late,
         without.late
     );
     assert!(
-        with.all.abs() < 0.5 * without.all,
+        with.all.abs() < 0.25 * without.all,
         "with: {} against without: {}",
         with.all,
         without.all
