@@ -53,12 +53,13 @@
 
 mod affine;
 mod config;
+mod gain;
 pub mod sample;
 mod template;
 pub mod track;
 mod window;
 
-pub use config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
+pub use config::{Illumination, LkConfig, LkConfigError, LkError, MAX_WINDOW};
 pub use track::Tracker;
 
 use crate::geometry::Vec2;

@@ -56,7 +56,9 @@ pub(super) struct Template<'r> {
     pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
     mask: TplRow,
-    /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
+    /// `G` as `[a, b, c]` for `[[a, b], [b, c]]`.
+    pub(super) g: [f32; 3],
+    /// `G⁻¹`, likewise.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
     /// frame (the gradients' support), used as a ring while filling.
@@ -93,6 +95,7 @@ impl<'r> Template<'r> {
             gx,
             gy,
             mask: [0.0; TPL],
+            g: [0.0; 3],
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; 3],
             src: [0; SRC],
@@ -136,15 +139,8 @@ impl<'r> Template<'r> {
             (4, _) => self.sample::<4, 4>(image, &src),
             _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
         };
-        let area = (n * n) as f32;
-        let half_diff = 0.5 * (gxx - gyy);
-        let lambda_min = 0.5 * (gxx + gyy) - crate::fsqrt::sqrtf(half_diff * half_diff + gxy * gxy);
-        let det = gxx * gyy - gxy * gxy;
-        let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
-        if !well_conditioned {
-            return Err(TemplateFault::LowEigenvalue);
-        }
-        self.g_inv = [gyy / det, -gxy / det, gxx / det];
+        self.g = [gxx, gxy, gyy];
+        self.g_inv = invert([gxx, gxy, gyy], n, min_eig).ok_or(TemplateFault::LowEigenvalue)?;
         Ok(())
     }
 
@@ -216,32 +212,51 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<Mismatch> {
+        let [sx, sy, sa] = if with_abs {
+            self.sweep(image, c, clamp, &Plain::<true>)?
+        } else {
+            self.sweep(image, c, clamp, &Plain::<false>)?
+        };
+        Some(Mismatch {
+            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
+            abs: sa.iter().sum::<f32>(),
+        })
+    }
+
+    /// One pass of `kernel` over the window centred on `c` in `image`: its
+    /// per-lane sums; `None` when the window is outside (with `clamp`, only
+    /// when its centre is).
+    #[inline]
+    pub(super) fn sweep<K: RowKernel>(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        kernel: &K,
+    ) -> Option<K::Sums> {
         let n = self.n;
         let half = (n / 2) as f32;
         let clamp = clamp && inside(image, c);
         let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
-        Some(match (window::chunks(n), with_abs) {
-            (1, false) => self.mismatch_in::<1, false>(image, &src),
-            (2, false) => self.mismatch_in::<2, false>(image, &src),
-            (3, false) => self.mismatch_in::<3, false>(image, &src),
-            (_, false) => self.mismatch_in::<4, false>(image, &src),
-            (1, true) => self.mismatch_in::<1, true>(image, &src),
-            (2, true) => self.mismatch_in::<2, true>(image, &src),
-            (3, true) => self.mismatch_in::<3, true>(image, &src),
-            (_, true) => self.mismatch_in::<4, true>(image, &src),
+        Some(match window::chunks(n) {
+            1 => self.sweep_in::<1, K>(image, &src, kernel),
+            2 => self.sweep_in::<2, K>(image, &src, kernel),
+            3 => self.sweep_in::<3, K>(image, &src, kernel),
+            _ => self.sweep_in::<4, K>(image, &src, kernel),
         })
     }
 
-    /// [`Template::mismatch`] for rows of `C` chunks. Eight lanes in local
+    /// [`Template::sweep`] for rows of `C` chunks. Eight lanes in local
     /// arrays: the loop body is straight-line code over fixed-size arrays,
     /// which the compiler turns into SIMD; each lane sums its own columns.
     #[inline(always)]
-    fn mismatch_in<const C: usize, const ABS: bool>(
+    fn sweep_in<const C: usize, K: RowKernel>(
         &mut self,
         image: &ImageView<'_>,
         src: &SourceRows,
-    ) -> Mismatch {
-        let mut sums = [[0.0f32; LANES]; 3];
+        kernel: &K,
+    ) -> K::Sums {
+        let mut sums = K::Sums::default();
         let Template {
             n,
             t,
@@ -265,28 +280,35 @@ impl<'r> Template<'r> {
                     Some(next) => next,
                     None => src.row(image, i + 1, need, buf),
                 };
-                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         } else {
             for (i, ((t, gx), gy)) in rows.enumerate() {
                 let next = src.row(image, i + 1, need, buf);
-                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         }
-        let [sx, sy, sa] = sums;
-        Mismatch {
-            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
-            abs: sa.iter().sum::<f32>(),
-        }
+        sums
     }
 
     /// `G⁻¹ b`.
     pub(super) fn solve(&self, b: &Vec2) -> Vec2 {
-        let [a, o, c] = self.g_inv;
-        Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
+        solve(&self.g_inv, b)
     }
+}
+
+/// The inverse of the symmetric `[[a, b], [b, c]]` gradient matrix of an
+/// `n x n` window, when its smaller eigenvalue per pixel is at least
+/// `min_eig` and it is not singular.
+pub(super) fn invert([gxx, gxy, gyy]: [f32; 3], n: usize, min_eig: f32) -> Option<[f32; 3]> {
+    let area = (n * n) as f32;
+    let half_diff = 0.5 * (gxx - gyy);
+    let lambda_min = 0.5 * (gxx + gyy) - crate::fsqrt::sqrtf(half_diff * half_diff + gxy * gxy);
+    let det = gxx * gyy - gxy * gxy;
+    let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
+    well_conditioned.then(|| [gyy / det, -gxy / det, gxx / det])
 }
 
 /// One patch row: the next source row `next` interpolated horizontally into
@@ -354,6 +376,43 @@ fn gradient_row<const C: usize>(
     }
 }
 
+/// What one pass over a window sums per row: [`Template::sweep`] walks the
+/// rows, a kernel adds each row into its lane arrays.
+pub(super) trait RowKernel {
+    /// The per-lane sums (zero by default).
+    type Sums: Default;
+    /// Interpolates the next source row `next` horizontally into `h1`, blends
+    /// it with the previous one `h0` (`J = h0 + ay (h1 - h0)`) and adds the
+    /// row's terms against the template row into `sums`.
+    fn row<const C: usize>(
+        &self,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        sums: &mut Self::Sums,
+    );
+}
+
+/// The constant-brightness kernel: `sum (T - J) gx`, `sum (T - J) gy` and,
+/// with `ABS`, `sum |T - J|`.
+struct Plain<const ABS: bool>;
+
+impl<const ABS: bool> RowKernel for Plain<ABS> {
+    type Sums = [[f32; LANES]; 3];
+    #[inline(always)]
+    fn row<const C: usize>(
+        &self,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        sums: &mut [[f32; LANES]; 3],
+    ) {
+        mismatch_row::<C, ABS>(next, weights, h, tpl, sums);
+    }
+}
+
 /// One window row of [`Template::mismatch`]: interpolates the next source
 /// row `next` horizontally into `h1`; then with `d = T - J` and
 /// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|` per
@@ -388,6 +447,11 @@ fn mismatch_row<const C: usize, const ABS: bool>(
             }
         }
     }
+}
+
+/// `M b` for the symmetric `M = [[a, o], [o, c]]`.
+pub(super) fn solve(&[a, o, c]: &[f32; 3], b: &Vec2) -> Vec2 {
+    Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
 }
 
 /// `c` lies inside the image (pixel centres `0..=width-1`).
