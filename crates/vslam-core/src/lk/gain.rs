@@ -25,7 +25,7 @@ use crate::fsqrt::sqrtf;
 use crate::geometry::Vec2;
 use crate::image::ImageView;
 
-use super::template::{self, RowKernel, Template, TplRow};
+use super::template::{RowKernel, Template, TplRow};
 use super::window::{self, LANES, Row};
 
 /// A window whose variance is below this (levels², about 0.01 level of
@@ -49,21 +49,10 @@ pub(super) struct Moments {
     tg: Vec2,
     /// `sum [gx gy]`.
     g: Vec2,
-    /// The inverse of the gradient matrix with gain and bias projected out.
-    g_inv: [f32; 3],
 }
 
-impl Moments {
-    /// The update `G'⁻¹ b`.
-    pub(super) fn solve(&self, b: &Vec2) -> Vec2 {
-        template::solve(&self.g_inv, b)
-    }
-}
-
-/// The template's moments, or `None` when it is flat (no spread to match)
-/// or its gradient matrix, with the directions a gain and a bias explain
-/// projected out, has an eigenvalue below `min_eig` per pixel.
-pub(super) fn moments(tpl: &Template<'_>, min_eig: f32) -> Option<Moments> {
+/// The template's moments, or `None` when it is flat (no spread to match).
+pub(super) fn moments(tpl: &Template<'_>) -> Option<Moments> {
     let n = tpl.n;
     let rows = || tpl.t.iter().zip(tpl.gx.iter()).zip(tpl.gy.iter()).take(n);
     let count = (n * n) as f32;
@@ -86,16 +75,6 @@ pub(super) fn moments(tpl: &Template<'_>, min_eig: f32) -> Option<Moments> {
     if variance.partial_cmp(&MIN_VARIANCE) != Some(core::cmp::Ordering::Greater) {
         return None;
     }
-    // The residual's Jacobian with the bias (1) and gain (T - μT)
-    // directions projected out, two orthogonal directions:
-    // G' = G - g gᵀ / N - tg tgᵀ / sum (T - μT)².
-    let [gxx, gxy, gyy] = tpl.g;
-    let projected = [
-        gxx - g.x * g.x / count - tg.x * tg.x / sq,
-        gxy - g.x * g.y / count - tg.x * tg.y / sq,
-        gyy - g.y * g.y / count - tg.y * tg.y / sq,
-    ];
-    let g_inv = template::invert(projected, n, min_eig)?;
     Some(Moments {
         count,
         mean,
@@ -103,7 +82,6 @@ pub(super) fn moments(tpl: &Template<'_>, min_eig: f32) -> Option<Moments> {
         centred,
         tg,
         g,
-        g_inv,
     })
 }
 

@@ -56,9 +56,7 @@ pub(super) struct Template<'r> {
     pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
     mask: TplRow,
-    /// `G` as `[a, b, c]` for `[[a, b], [b, c]]`.
-    pub(super) g: [f32; 3],
-    /// `G⁻¹`, likewise.
+    /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
     /// frame (the gradients' support), used as a ring while filling.
@@ -95,7 +93,6 @@ impl<'r> Template<'r> {
             gx,
             gy,
             mask: [0.0; TPL],
-            g: [0.0; 3],
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; 3],
             src: [0; SRC],
@@ -139,8 +136,15 @@ impl<'r> Template<'r> {
             (4, _) => self.sample::<4, 4>(image, &src),
             _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
         };
-        self.g = [gxx, gxy, gyy];
-        self.g_inv = invert([gxx, gxy, gyy], n, min_eig).ok_or(TemplateFault::LowEigenvalue)?;
+        let area = (n * n) as f32;
+        let half_diff = 0.5 * (gxx - gyy);
+        let lambda_min = 0.5 * (gxx + gyy) - crate::fsqrt::sqrtf(half_diff * half_diff + gxy * gxy);
+        let det = gxx * gyy - gxy * gxy;
+        let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
+        if !well_conditioned {
+            return Err(TemplateFault::LowEigenvalue);
+        }
+        self.g_inv = [gyy / det, -gxy / det, gxx / det];
         Ok(())
     }
 
@@ -295,20 +299,9 @@ impl<'r> Template<'r> {
 
     /// `G⁻¹ b`.
     pub(super) fn solve(&self, b: &Vec2) -> Vec2 {
-        solve(&self.g_inv, b)
+        let [a, o, c] = self.g_inv;
+        Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
     }
-}
-
-/// The inverse of the symmetric `[[a, b], [b, c]]` gradient matrix of an
-/// `n x n` window, when its smaller eigenvalue per pixel is at least
-/// `min_eig` and it is not singular.
-pub(super) fn invert([gxx, gxy, gyy]: [f32; 3], n: usize, min_eig: f32) -> Option<[f32; 3]> {
-    let area = (n * n) as f32;
-    let half_diff = 0.5 * (gxx - gyy);
-    let lambda_min = 0.5 * (gxx + gyy) - crate::fsqrt::sqrtf(half_diff * half_diff + gxy * gxy);
-    let det = gxx * gyy - gxy * gxy;
-    let well_conditioned = lambda_min / area >= min_eig && det > f32::EPSILON * area * area;
-    well_conditioned.then(|| [gyy / det, -gxy / det, gxx / det])
 }
 
 /// One patch row: the next source row `next` interpolated horizontally into
@@ -447,11 +440,6 @@ fn mismatch_row<const C: usize, const ABS: bool>(
             }
         }
     }
-}
-
-/// `M b` for the symmetric `M = [[a, o], [o, c]]`.
-pub(super) fn solve(&[a, o, c]: &[f32; 3], b: &Vec2) -> Vec2 {
-    Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
 }
 
 /// `c` lies inside the image (pixel centres `0..=width-1`).

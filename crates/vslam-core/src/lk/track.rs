@@ -221,7 +221,7 @@ impl Tracker {
             // The gain-bias model needs the template's spread.
             moments = match cfg.illumination {
                 Illumination::Constant => None,
-                Illumination::GainBias { .. } => match gain::moments(tpl, cfg.min_eigenvalue) {
+                Illumination::GainBias { .. } => match gain::moments(tpl) {
                     Some(m) => Some(m),
                     None if level == 0 => {
                         return Pass::lost(point + flow, LostReason::LowEigenvalue);
@@ -351,7 +351,7 @@ impl Tracker {
             }
             Some(moments) => {
                 let (b, residual) = gain::mismatch(tpl, image, c, clamp, measure, moments)?;
-                Some((moments.solve(&b), residual))
+                Some((tpl.solve(&b), residual))
             }
         }
     }
