@@ -226,7 +226,9 @@ fn the_gain_bias_model_rejects_flat_inverted_and_foreign_windows() {
         ..LkConfig::default()
     };
     let r = track(&a, &a, lenient, &p);
-    assert!(r[0].is_tracked() && r[0].residual < 1e-3, "{r:?}");
+    // The same image: residual 0 up to f32 rounding of 1 - ZNCC (about 1e-6,
+    // so about 0.002 after the square root).
+    assert!(r[0].is_tracked() && r[0].residual < 0.01, "{r:?}");
 }
 
 #[test]

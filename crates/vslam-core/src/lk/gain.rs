@@ -28,6 +28,11 @@ use crate::image::ImageView;
 use super::template::{RowKernel, Template, TplRow};
 use super::window::{self, LANES, Row};
 
+/// Lanes of the gain-bias sums: four, as five or six sums of the tracker's
+/// eight lanes do not stay in registers (and then do not vectorise: measured
+/// 2.5 times the instructions).
+const QUAD: usize = 4;
+
 /// A window whose variance is below this (levels², about 0.01 level of
 /// standard deviation) is flat: its gain is undefined.
 const MIN_VARIANCE: f32 = 1e-4;
@@ -54,35 +59,65 @@ pub(super) struct Moments {
 /// The template's moments, or `None` when it is flat (no spread to match).
 pub(super) fn moments(tpl: &Template<'_>) -> Option<Moments> {
     let n = tpl.n;
-    let rows = || tpl.t.iter().zip(tpl.gx.iter()).zip(tpl.gy.iter()).take(n);
     let count = (n * n) as f32;
-    let sum: f32 = rows()
-        .map(|((t, _), _)| t.iter().take(n).sum::<f32>())
-        .sum();
-    let mean = sum / count;
-    let (mut sq, mut centred, mut tg, mut g) = (0.0f32, 0.0f32, Vec2::zeros(), Vec2::zeros());
-    for ((t, gx), gy) in rows() {
-        for ((&t, &gx), &gy) in t.iter().zip(gx).zip(gy).take(n) {
-            let c = t - mean;
-            sq += c * c;
-            centred += c;
-            tg += Vec2::new(c * gx, c * gy);
-            g += Vec2::new(gx, gy);
-        }
+    // Sums about the centre sample (near the mean, for precision), in lanes:
+    // c = T - o: sum c, sum c², sum c gx, sum c gy, sum gx, sum gy.
+    let o = tpl
+        .t
+        .get(n / 2)
+        .and_then(|row| row.get(n / 2))
+        .copied()
+        .unwrap_or(0.0);
+    let mut sums = [[0.0f32; QUAD]; 6];
+    let rows = tpl.t.iter().zip(tpl.gx.iter()).zip(tpl.gy.iter()).take(n);
+    for ((t, gx), gy) in rows {
+        moments_row(o, [t, gx, gy, &tpl.mask], &mut sums);
     }
-    let variance = sq / count;
+    let [sc, scc, scx, scy, sx, sy] = sums.map(|s| s.iter().sum::<f32>());
+    let shift = sc / count;
+    let mean = o + shift;
+    let variance = scc / count - shift * shift;
     // Also refuses a NaN variance.
     if variance.partial_cmp(&MIN_VARIANCE) != Some(core::cmp::Ordering::Greater) {
         return None;
     }
+    let g = Vec2::new(sx, sy);
     Some(Moments {
         count,
         mean,
         sigma: sqrtf(variance),
-        centred,
-        tg,
+        centred: sc - count * shift,
+        tg: Vec2::new(scx, scy) - g * shift,
         g,
     })
+}
+
+/// One template row's terms of [`moments`] (the whole row in lanes; the
+/// mask and the zero gradients past the window drop the padding).
+#[inline(never)]
+fn moments_row(o: f32, [t, gx, gy, mask]: [&TplRow; 4], sums: &mut [[f32; QUAD]; 6]) {
+    let [sc, scc, scx, scy, sx, sy] = sums;
+    let (t8, _) = t.as_chunks::<QUAD>();
+    let (gx8, _) = gx.as_chunks::<QUAD>();
+    let (gy8, _) = gy.as_chunks::<QUAD>();
+    let (m8, _) = mask.as_chunks::<QUAD>();
+    for (((t, gx), gy), m) in t8.iter().zip(gx8).zip(gy8).zip(m8) {
+        let lanes = sc.iter_mut().zip(scc.iter_mut()).zip(scx.iter_mut());
+        let lanes = lanes
+            .zip(scy.iter_mut())
+            .zip(sx.iter_mut())
+            .zip(sy.iter_mut());
+        let pixels = t.iter().zip(gx).zip(gy).zip(m);
+        for ((((((a, b), x), y), u), v), (((&t, &gx), &gy), &m)) in lanes.zip(pixels) {
+            let c = (t - o) * m;
+            *a += c;
+            *b += c * c;
+            *x += c * gx;
+            *y += c * gy;
+            *u += gx;
+            *v += gy;
+        }
+    }
 }
 
 /// The gain and bias that map a window onto the template.
@@ -141,30 +176,31 @@ pub(super) fn mismatch(
     } else {
         tpl.sweep(image, c, clamp, &Compensated::<false> { mean: m.mean })?
     };
-    let [sx, sy, sum, sum_sq, cross] = sums.map(|s| s.iter().sum::<f32>());
+    let [sx, sy, sum, sum_sq, tj] = sums.map(|s| s.iter().sum::<f32>());
     let Some(p) = fit(m, sum, sum_sq) else {
         return Some((Vec2::zeros(), f32::INFINITY));
     };
-    // sum (J - μJ) g = sum (T - μT) g - sum (T - J) g - (μJ - μT) sum g.
-    let jg = m.tg - Vec2::new(sx, sy) - m.g * p.offset;
+    // sum (J - μJ) g = sum (J - μT) g - (μJ - μT) sum g.
+    let jg = Vec2::new(sx, sy) - m.g * p.offset;
     let b = m.tg - jg * p.gain;
     let residual = if measure {
-        normalised_residual(m, &p, cross)
+        // sum (T - μT)(J - μT) = sum T (J - μT) - μT sum (J - μT).
+        normalised_residual(m, &p, tj - m.mean * sum)
     } else {
         0.0
     };
     Some((b, residual))
 }
 
-/// The gain-bias kernel: with `J' = J - μT`, sums `(T - J) gx`,
-/// `(T - J) gy`, `J'`, `J'²` and, with `CROSS`, `(T - μT) J'`.
+/// The gain-bias kernel: with `J' = J - μT`, sums `J' gx`, `J' gy`, `J'`,
+/// `J'²` and, with `CROSS`, `T J'`.
 struct Compensated<const CROSS: bool> {
     /// `μT`.
     mean: f32,
 }
 
 impl<const CROSS: bool> RowKernel for Compensated<CROSS> {
-    type Sums = [[f32; LANES]; 5];
+    type Sums = [[f32; QUAD]; 5];
     #[inline(always)]
     fn row<const C: usize>(
         &self,
@@ -172,14 +208,15 @@ impl<const CROSS: bool> RowKernel for Compensated<CROSS> {
         weights: [f32; 2],
         h: [&mut Row; 2],
         tpl: [&TplRow; 4],
-        sums: &mut [[f32; LANES]; 5],
+        sums: &mut [[f32; QUAD]; 5],
     ) {
         compensated_row::<C, CROSS>(next, weights, h, tpl, self.mean, sums);
     }
 }
 
 /// One window row of the gain-bias kernel (out of line, as the constant
-/// model's row, so that it vectorises).
+/// model's row, so that it vectorises; in [`QUAD`] lanes, which keep the
+/// five sums in registers).
 #[inline(never)]
 fn compensated_row<const C: usize, const CROSS: bool>(
     next: &[u8],
@@ -187,31 +224,29 @@ fn compensated_row<const C: usize, const CROSS: bool>(
     [h0, h1]: [&mut Row; 2],
     [t, gx, gy, mask]: [&TplRow; 4],
     mean: f32,
-    sums: &mut [[f32; LANES]; 5],
+    sums: &mut [[f32; QUAD]; 5],
 ) {
     window::horizontal_inline::<C>(next, ax, h1);
     let [sx, sy, s1, s2, st] = sums;
-    let (t8, _) = t.as_chunks::<LANES>();
-    let (gx8, _) = gx.as_chunks::<LANES>();
-    let (gy8, _) = gy.as_chunks::<LANES>();
-    let (a8, _) = h0.as_chunks::<LANES>();
-    let (b8, _) = h1.as_chunks::<LANES>();
-    let (m8, _) = mask.as_chunks::<LANES>();
-    let chunks = t8.iter().zip(gx8).zip(gy8).zip(a8.iter().zip(b8)).zip(m8);
-    for ((((t, gx), gy), (a, b)), m) in chunks.take(C) {
+    let (t4, _) = t.as_chunks::<QUAD>();
+    let (gx4, _) = gx.as_chunks::<QUAD>();
+    let (gy4, _) = gy.as_chunks::<QUAD>();
+    let (a4, _) = h0.as_chunks::<QUAD>();
+    let (b4, _) = h1.as_chunks::<QUAD>();
+    let (m4, _) = mask.as_chunks::<QUAD>();
+    let chunks = t4.iter().zip(gx4).zip(gy4).zip(a4.iter().zip(b4)).zip(m4);
+    for ((((t, gx), gy), (a, b)), m) in chunks.take(C * LANES / QUAD) {
         let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(s1.iter_mut());
         let lanes = lanes.zip(s2.iter_mut()).zip(st.iter_mut());
         let pixels = t.iter().zip(gx).zip(gy).zip(a.iter().zip(b)).zip(m);
         for (((((x, y), s1), s2), st), ((((&t, &gx), &gy), (&a, &b)), &m)) in lanes.zip(pixels) {
-            let j = a + ay * (b - a);
-            let d = t - j;
-            *x += d * gx;
-            *y += d * gy;
-            let jc = (j - mean) * m;
-            *s1 += jc;
-            *s2 += jc * jc;
+            let j = (a + ay * (b - a) - mean) * m;
+            *x += j * gx;
+            *y += j * gy;
+            *s1 += j;
+            *s2 += j * j;
             if CROSS {
-                *st += (t - mean) * jc;
+                *st += t * j;
             }
         }
     }

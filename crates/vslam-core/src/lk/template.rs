@@ -11,7 +11,7 @@ use super::config::MAX_WINDOW;
 use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
 
 /// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
-const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
+pub(super) const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
 /// One template row: intensities, gradients or the column mask.
 pub(super) type TplRow = [f32; TPL];
 
@@ -55,7 +55,7 @@ pub(super) struct Template<'r> {
     pub(super) gx: &'r mut [TplRow],
     pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
-    mask: TplRow,
+    pub(super) mask: TplRow,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
