@@ -21,7 +21,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use test_support::images::{Gray, Homography, load};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
-use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::lk::{Illumination, LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
 
 /// `g` as the library's image view.
@@ -82,6 +82,13 @@ fn bench(c: &mut Criterion) {
             "lk/100_corners_21x21_3_levels_coarse_epsilon_0.04",
             LkConfig {
                 coarse_epsilon: Some(0.04),
+                ..LkConfig::default()
+            },
+        ),
+        (
+            "lk/100_corners_21x21_3_levels_gain_bias",
+            LkConfig {
+                illumination: Illumination::GAIN_BIAS,
                 ..LkConfig::default()
             },
         ),

@@ -4,16 +4,17 @@
 //! median endpoint error against the ground-truth homography and the median
 //! wall time of one tracking call (a rough figure; the criterion bench is the
 //! measurement).
-//! Usage: `lk_profile [ROUNDS [REPEATS [COARSE_EPSILON]]]` (default 20 rounds
-//! of 1 tracking call, `LkConfig::default()`; a third argument sets
-//! `LkConfig::coarse_epsilon`).
+//! Usage: `lk_profile [ROUNDS [REPEATS [COARSE_EPSILON [gain-bias]]]]`
+//! (default 20 rounds of 1 tracking call, `LkConfig::default()`; a third
+//! argument sets `LkConfig::coarse_epsilon` (`-` for none), a fourth
+//! `gain-bias` the `Illumination::GAIN_BIAS` model).
 
 use std::hint::black_box;
 
 use test_support::images::{Gray, Homography, load, median};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
-use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::lk::{Illumination, LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
 
 /// `g` as the library's image view.
@@ -50,8 +51,13 @@ fn main() {
     let (mut sa, mut sb) = (Box::new(Storage::new()), Box::new(Storage::new()));
     let mut results = vec![TrackResult::EMPTY; n];
     let coarse_epsilon = std::env::args().nth(3).and_then(|a| a.parse().ok());
+    let illumination = match std::env::args().nth(4).as_deref() {
+        Some("gain-bias") => Illumination::GAIN_BIAS,
+        _ => Illumination::Constant,
+    };
     let tracker = Tracker::new(LkConfig {
         coarse_epsilon,
+        illumination,
         ..LkConfig::default()
     })
     .unwrap();

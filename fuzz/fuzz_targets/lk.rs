@@ -1,14 +1,17 @@
 //! Pyramidal Lucas-Kanade (and the pyramid and Shi-Tomasi corners it sits
 //! on) on small random image pairs: sizes, settings, points and guesses all
 //! come from the fuzzer. Every point ends in exactly one count; a tracked
-//! point is finite and inside the image.
+//! point is finite and inside the image. The shift byte's two top bits both
+//! set pick the gain-bias illumination model (and then relight the second
+//! image to half the contrast, 64 levels brighter, the change that model is
+//! for); the point count byte's top bit picks its residual limit.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::image::ImageView;
-use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::lk::{Illumination, LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, storage_bytes};
 
 const MAX_SIDE: usize = 48;
@@ -31,10 +34,14 @@ fuzz_target!(|data: &[u8]| {
     }
     let img1: Vec<u8> = pixels.iter().copied().cycle().take(n).collect();
     let (dx, dy) = (usize::from(shift & 7), usize::from(shift >> 3 & 7));
+    let gain_bias = shift & 0xc0 == 0xc0;
     let img2: Vec<u8> = (0..n)
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let src = img1[((y + dy) % h) * w + (x + dx) % w];
+            let mut src = img1[((y + dy) % h) * w + (x + dx) % w];
+            if gain_bias {
+                src = src / 2 + 64;
+            }
             if flags & 0x40 != 0 {
                 src.wrapping_add(rest.get(i).copied().unwrap_or(0) & 7)
             } else {
@@ -80,6 +87,13 @@ fuzz_target!(|data: &[u8]| {
         max_iterations: 1 + u32::from(iters) % 30,
         affine_refinement: flags & 0x80 != 0,
         fb_threshold: (iters & 0x80 != 0).then_some(1.0),
+        illumination: if gain_bias {
+            Illumination::GainBias {
+                max_residual: if npts & 0x80 != 0 { 2.0 } else { 0.5 },
+            }
+        } else {
+            Illumination::Constant
+        },
         ..LkConfig::default()
     };
     let Ok(tracker) = Tracker::new(config) else {

@@ -39,7 +39,7 @@ use core::fmt;
 use crate::corners::{Corner, CornerConfig, CornerError, border_for_window, detect_corners};
 use crate::geometry::Vec2;
 use crate::image::ImageView;
-use crate::lk::{LkConfig, LkConfigError, TrackResult, Tracker};
+use crate::lk::{Illumination, LkConfig, LkConfigError, TrackResult, Tracker};
 use crate::pyramid::{Pyramid, storage_bytes};
 use crate::scale::raw_flow::{FeatureMotion, MAX_FEATURES, RawFlowOptics, combine};
 use crate::sensors::{FLOW_FRAME_LEN, FLOW_FRAME_SIDE, FlowOptics};
@@ -117,6 +117,7 @@ impl Default for FrameFlowConfig {
                 max_residual: 24.0,
                 affine_refinement: false,
                 fb_threshold: None,
+                illumination: Illumination::Constant,
             },
             min_distinctness: MIN_DISTINCTNESS,
         }

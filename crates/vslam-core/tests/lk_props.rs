@@ -6,7 +6,7 @@ use proptest::test_runner::{Config, RngSeed};
 use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
 use vslam_core::geometry::Vec2;
 use vslam_core::image::ImageView;
-use vslam_core::lk::{LkConfig, TrackResult, Tracker};
+use vslam_core::lk::{Illumination, LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage};
 
 fn config() -> Config {
@@ -57,14 +57,20 @@ fn lk_config() -> impl Strategy<Value = LkConfig> {
         1u32..=12,
         any::<bool>(),
         any::<bool>(),
+        any::<bool>(),
     )
         .prop_map(
-            |(half, levels, max_iterations, fb, affine_refinement)| LkConfig {
+            |(half, levels, max_iterations, fb, affine_refinement, gain_bias)| LkConfig {
                 window: 2 * half + 1,
                 levels,
                 max_iterations,
                 fb_threshold: fb.then_some(0.7),
                 affine_refinement,
+                illumination: if gain_bias {
+                    Illumination::GAIN_BIAS
+                } else {
+                    Illumination::Constant
+                },
                 ..LkConfig::default()
             },
         )

@@ -3,7 +3,7 @@
 use test_support::images::{Gray, shifted, texture};
 use vslam_core::geometry::Vec2;
 use vslam_core::lk::{
-    LkConfig, LkConfigError, LkError, LostReason, TrackResult, TrackStatus, Tracker,
+    Illumination, LkConfig, LkConfigError, LkError, LostReason, TrackResult, TrackStatus, Tracker,
 };
 use vslam_core::pyramid::{Pyramid, PyramidStorage};
 
@@ -140,6 +140,8 @@ fn non_finite_points_are_invalid_never_a_panic() {
     );
 }
 
+/// With constant brightness (the default); the gain-bias model tracks the
+/// same pair (next test).
 #[test]
 fn a_brightness_change_gives_a_large_residual() {
     let a = texture(96, 96, 4);
@@ -155,6 +157,78 @@ fn a_brightness_change_gives_a_large_residual() {
         ..LkConfig::default()
     };
     assert!(track(&a, &b, lenient, &[Vec2::new(48.0, 48.0)])[0].is_tracked());
+}
+
+fn gain_bias() -> LkConfig {
+    LkConfig {
+        illumination: Illumination::GAIN_BIAS,
+        ..LkConfig::default()
+    }
+}
+
+#[test]
+fn the_gain_bias_model_tracks_through_a_brightness_change() {
+    // The pair above, and the same scene at 0.6 of the contrast, 70 levels brighter.
+    let a = texture(96, 96, 4);
+    let mut b = shifted(&a, 0.5, 0.5);
+    for v in &mut b.data {
+        *v = v.saturating_add(50);
+    }
+    let mut c = shifted(&a, 0.5, 0.5);
+    for v in &mut c.data {
+        *v = (0.6 * f32::from(*v) + 70.0).round() as u8;
+    }
+    for relit in [&b, &c] {
+        let r = track(&a, relit, gain_bias(), &[Vec2::new(48.0, 48.0)]);
+        assert!(r[0].is_tracked(), "{r:?}");
+        let err = (r[0].position - Vec2::new(48.5, 48.5)).norm();
+        assert!(err < 0.05, "error {err} px");
+        // The normalised residual sqrt(2 (1 - ZNCC)): near 0 for a match.
+        assert!(r[0].residual < 0.2, "{r:?}");
+    }
+}
+
+#[test]
+fn the_gain_bias_model_rejects_flat_inverted_and_foreign_windows() {
+    let a = texture(96, 96, 8);
+    let p = [Vec2::new(48.0, 48.0)];
+    // A saturated (flat) next frame: no gain maps it onto the template.
+    for level in [0u8, 128, 255] {
+        let flat = Gray {
+            data: vec![level; 96 * 96],
+            width: 96,
+            height: 96,
+        };
+        let r = track(&a, &flat, gain_bias(), &p);
+        assert_eq!(lost(&r[0]), Some(LostReason::LargeResidual), "{r:?}");
+        assert!(!r[0].residual.is_nan(), "{r:?}");
+        assert!(r[0].position.x.is_finite() && r[0].position.y.is_finite());
+        // A flat template is textureless, as with constant brightness.
+        let r = track(&flat, &a, gain_bias(), &p);
+        assert_eq!(lost(&r[0]), Some(LostReason::LowEigenvalue), "{r:?}");
+    }
+    // A negative: the gain would have to be negative (the iteration wanders
+    // off, or stops on a poor match).
+    let inverted = Gray {
+        data: a.data.iter().map(|v| 255 - v).collect(),
+        width: 96,
+        height: 96,
+    };
+    let r = track(&a, &inverted, gain_bias(), &p);
+    assert!(!r[0].is_tracked(), "{r:?}");
+    // Another texture altogether.
+    let other = texture(96, 96, 9);
+    let r = track(&a, &other, gain_bias(), &p);
+    assert!(!r[0].is_tracked(), "{r:?}");
+    // Any limit of 2 or more accepts every window that converges.
+    let lenient = LkConfig {
+        illumination: Illumination::GainBias { max_residual: 2.0 },
+        ..LkConfig::default()
+    };
+    let r = track(&a, &a, lenient, &p);
+    // The same image: residual 0 up to f32 rounding of 1 - ZNCC (about 1e-6,
+    // so about 0.002 after the square root).
+    assert!(r[0].is_tracked() && r[0].residual < 0.01, "{r:?}");
 }
 
 #[test]
@@ -335,6 +409,26 @@ fn call_errors() {
             ..d
         }),
         Some(LkConfigError::FbThreshold)
+    );
+    for limit in [0.0, -0.5, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            bad(LkConfig {
+                illumination: Illumination::GainBias {
+                    max_residual: limit
+                },
+                ..d
+            }),
+            Some(LkConfigError::GainBiasResidual),
+            "{limit}"
+        );
+    }
+    assert_eq!(d.illumination, Illumination::Constant);
+    assert!(
+        Tracker::new(LkConfig {
+            illumination: Illumination::GAIN_BIAS,
+            ..d
+        })
+        .is_ok()
     );
     assert!(
         Tracker::new(LkConfig {

@@ -14,13 +14,16 @@
 //! the precomputed Cholesky factor. A weak Gaussian prior on the deformation
 //! (a Tikhonov term in the normal equations, toward `A = I`) keeps windows
 //! whose affine parameters are unobservable (one straight edge, a T junction
-//! of bricks) from drifting.
+//! of bricks) from drifting. Under [`super::Illumination::GainBias`] the
+//! warped window is rescaled to the template's mean and spread at every
+//! iteration, as in the translational pass (`gain`).
 
 use nalgebra::{Cholesky, Matrix2, Matrix6, U6, Vector6};
 
 use crate::geometry::Vec2;
 use crate::image::ImageView;
 
+use super::gain::{self, Moments};
 use super::template::Template;
 
 /// Weight of the prior toward no deformation, relative to the window's mean
@@ -33,7 +36,8 @@ const PRIOR: f32 = 0.05;
 pub(super) struct AffineFit {
     /// Where the template centre lands.
     pub center: Vec2,
-    /// Mean absolute intensity difference at the final warp.
+    /// Mean absolute intensity difference at the final warp (the normalised
+    /// residual under the gain-bias model).
     pub residual: f32,
     /// Whether the last step was below epsilon.
     pub converged: bool,
@@ -41,14 +45,16 @@ pub(super) struct AffineFit {
     pub iterations: u32,
 }
 
-/// Refines from the translational result `start`; `None` when the warped
-/// window leaves the image or the Hessian is singular.
+/// Refines from the translational result `start` (with `moments`, under the
+/// gain-bias model); `None` when the warped window leaves the image or the
+/// Hessian is singular.
 pub(super) fn refine(
     tpl: &Template<'_>,
     image: &ImageView<'_>,
     start: Vec2,
     max_iterations: u32,
     epsilon: f32,
+    moments: Option<&Moments>,
 ) -> Option<AffineFit> {
     let n = tpl.n;
     let half = (n / 2) as f32;
@@ -59,12 +65,16 @@ pub(super) fn refine(
     let lambda = PRIOR * 0.5 * (hessian.m11 + hessian.m22);
     hessian += Matrix6::from_diagonal(&Vector6::new(0.0, 0.0, lambda, lambda, lambda, lambda));
     let chol: Cholesky<f32, U6> = Cholesky::new(hessian)?;
+    let compensation = moments.map(|m| Compensation::new(tpl, s, m));
     let mut center = start;
     let mut a = Matrix2::<f32>::identity();
     let mut converged = false;
     let mut iterations = 0;
     for k in 0..max_iterations {
-        let (mut b, _) = evaluate(tpl, image, center, &a, s)?;
+        let (mut b, _) = match &compensation {
+            None => evaluate(tpl, image, center, &a, s)?,
+            Some(c) => c.evaluate(tpl, image, center, &a, s)?,
+        };
         // The prior's gradient: the current deformation in step units.
         let q = (a - Matrix2::identity()) / s;
         b += Vector6::new(0.0, 0.0, q.m11, q.m12, q.m21, q.m22) * lambda;
@@ -85,10 +95,13 @@ pub(super) fn refine(
             break;
         }
     }
-    let (_, abs) = evaluate(tpl, image, center, &a, s)?;
+    let residual = match &compensation {
+        None => evaluate(tpl, image, center, &a, s)?.1 / (n * n) as f32,
+        Some(c) => c.evaluate(tpl, image, center, &a, s)?.1,
+    };
     Some(AffineFit {
         center,
-        residual: abs / (n * n) as f32,
+        residual,
         converged,
         iterations,
     })
@@ -118,6 +131,79 @@ fn evaluate(
     a: &Matrix2<f32>,
     s: f32,
 ) -> Option<(Vector6<f32>, f32)> {
+    let mut b = Vector6::<f32>::zeros();
+    let mut abs = 0.0f32;
+    warped(tpl, image, c, a, s, |sd, t, v| {
+        let e = v - t;
+        b += sd * e;
+        abs += libm::fabsf(e);
+    })?;
+    Some((b, abs))
+}
+
+/// What the gain-bias model needs of the template for the affine warp.
+struct Compensation<'m> {
+    moments: &'m Moments,
+    /// `sum sd`.
+    sd: Vector6<f32>,
+    /// `sum sd (T - μT)`.
+    sd_t: Vector6<f32>,
+}
+
+impl<'m> Compensation<'m> {
+    fn new(tpl: &Template<'_>, s: f32, moments: &'m Moments) -> Self {
+        let (mut sd_sum, mut sd_t) = (Vector6::zeros(), Vector6::zeros());
+        for_each_sd(tpl, s, |sd, t| {
+            sd_sum += sd;
+            sd_t += sd * (t - moments.mean);
+        });
+        Compensation {
+            moments,
+            sd: sd_sum,
+            sd_t,
+        }
+    }
+
+    /// [`evaluate`] with the warped window rescaled to the template's mean
+    /// and spread: `sum sd (J' - T)` and the normalised residual; a flat
+    /// window gives no update and an infinite residual.
+    fn evaluate(
+        &self,
+        tpl: &Template<'_>,
+        image: &ImageView<'_>,
+        c: Vec2,
+        a: &Matrix2<f32>,
+        s: f32,
+    ) -> Option<(Vector6<f32>, f32)> {
+        let mean = self.moments.mean;
+        let (mut sd_j, mut sum, mut sum_sq, mut cross) = (Vector6::zeros(), 0.0, 0.0, 0.0);
+        warped(tpl, image, c, a, s, |sd, t, v| {
+            let j = v - mean;
+            sd_j += sd * j;
+            sum += j;
+            sum_sq += j * j;
+            cross += (t - mean) * j;
+        })?;
+        let Some(p) = gain::fit(self.moments, sum, sum_sq) else {
+            return Some((Vector6::zeros(), f32::INFINITY));
+        };
+        // sum sd (J' - T) = gain sum sd (J - μJ) - sum sd (T - μT).
+        let b = (sd_j - self.sd * p.offset) * p.gain - self.sd_t;
+        Some((b, gain::normalised_residual(self.moments, &p, cross)))
+    }
+}
+
+/// Calls `f(sd, t, j)` with the steepest-descent vector, the template value
+/// and the warped window's value of every window pixel; `None` when the
+/// warped window leaves the image.
+fn warped(
+    tpl: &Template<'_>,
+    image: &ImageView<'_>,
+    c: Vec2,
+    a: &Matrix2<f32>,
+    s: f32,
+    mut f: impl FnMut(Vector6<f32>, f32, f32),
+) -> Option<()> {
     let half = (tpl.n / 2) as f32;
     // The window maps to a parallelogram: its four corners inside (with the
     // bilinear neighbour) keep every pixel inside.
@@ -128,25 +214,17 @@ fn evaluate(
             return None;
         }
     }
-    let mut b = Vector6::<f32>::zeros();
-    let mut abs = 0.0f32;
-    let mut j = 0usize;
-    let n = tpl.n;
-    let mut ok = true;
+    let (n, mut j, mut ok) = (tpl.n, 0usize, true);
     for_each_sd(tpl, s, |sd, t| {
         let (col, row) = ((j % n) as f32 - half, (j / n) as f32 - half);
         j += 1;
         let p = c + a * Vec2::new(col, row);
-        let v = bilinear(image, p.x, p.y);
-        let Some(v) = v else {
-            ok = false;
-            return;
-        };
-        let e = v - t;
-        b += sd * e;
-        abs += libm::fabsf(e);
+        match bilinear(image, p.x, p.y) {
+            Some(v) => f(sd, t, v),
+            None => ok = false,
+        }
     });
-    ok.then_some((b, abs))
+    ok.then_some(())
 }
 
 /// One bilinear sample; the caller has checked `(x, y)` is inside.

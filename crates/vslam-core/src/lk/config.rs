@@ -29,7 +29,8 @@ pub struct LkConfig {
     /// Smallest accepted eigenvalue of `G / window²`, (levels/pixel)², `>= 0`.
     pub min_eigenvalue: f32,
     /// Largest accepted residual (mean absolute difference, levels), `> 0`;
-    /// `f32::INFINITY` disables the check.
+    /// `f32::INFINITY` disables the check. Used with
+    /// [`Illumination::Constant`]; [`Illumination::GainBias`] has its own.
     pub max_residual: f32,
     /// After the translational pass, refine an affine warp of the window at
     /// level 0 (more accurate under rotation and scale, about twice the cost).
@@ -37,6 +38,35 @@ pub struct LkConfig {
     /// Forward-backward threshold in pixels (`> 0`, finite), or `None` to skip
     /// the check (it doubles the cost).
     pub fb_threshold: Option<f32>,
+    /// How the brightness may change between the two images: not at all
+    /// (the default, Bouguet's model) or by a gain and a bias per window.
+    pub illumination: Illumination,
+}
+
+/// The brightness model between the two images of a track.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Illumination {
+    /// The same intensities in both images (Bouguet 2000): the residual is
+    /// the mean absolute difference, judged by [`LkConfig::max_residual`].
+    #[default]
+    Constant,
+    /// The window may change by a gain and a bias (exposure, lamps): at
+    /// every iteration the moving window is rescaled to the template's mean
+    /// and standard deviation before the residual and the update; the track
+    /// is judged by the normalised residual `sqrt(2 (1 - ZNCC))` (0 for a
+    /// perfect match up to gain and bias, 2 for an inverted one), lost as
+    /// [`crate::lk::LostReason::LargeResidual`] above `max_residual`.
+    GainBias {
+        /// Largest accepted normalised residual, finite and `> 0` (0.5
+        /// accepts a zero-mean normalised cross-correlation of 0.875 or
+        /// more; 2 or more accepts any).
+        max_residual: f32,
+    },
+}
+
+impl Illumination {
+    /// [`Illumination::GainBias`] with a normalised residual limit of 0.5.
+    pub const GAIN_BIAS: Illumination = Illumination::GainBias { max_residual: 0.5 };
 }
 
 impl Default for LkConfig {
@@ -55,6 +85,7 @@ impl Default for LkConfig {
             max_residual: 30.0,
             affine_refinement: false,
             fb_threshold: None,
+            illumination: Illumination::Constant,
         }
     }
 }
@@ -78,6 +109,8 @@ pub enum LkConfigError {
     MaxResidual,
     /// `fb_threshold` is not a positive finite number.
     FbThreshold,
+    /// The gain-bias residual limit is not a positive finite number.
+    GainBiasResidual,
 }
 
 impl fmt::Display for LkConfigError {
@@ -92,6 +125,9 @@ impl fmt::Display for LkConfigError {
             LkConfigError::MaxResidual => "LK residual limit must be positive",
             LkConfigError::FbThreshold => {
                 "LK forward-backward threshold must be positive and finite"
+            }
+            LkConfigError::GainBiasResidual => {
+                "LK gain-bias residual limit must be positive and finite"
             }
         })
     }
@@ -130,6 +166,11 @@ impl LkConfig {
             && !(t.is_finite() && t > 0.0)
         {
             return Err(LkConfigError::FbThreshold);
+        }
+        if let Illumination::GainBias { max_residual } = self.illumination
+            && !(max_residual.is_finite() && max_residual > 0.0)
+        {
+            return Err(LkConfigError::GainBiasResidual);
         }
         Ok(())
     }

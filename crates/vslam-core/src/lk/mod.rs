@@ -25,6 +25,13 @@
 //! inverse compositional), which removes the bias the translational model
 //! has under rotation and scale (see `affine`).
 //!
+//! With [`LkConfig::illumination`] set to [`Illumination::GainBias`] the
+//! moving window is rescaled to the template's mean and standard deviation
+//! at every iteration, so that a gain and a bias between the frames (lamps,
+//! exposure) do not bias or break the track, and the track is judged by the
+//! normalised residual `sqrt(2 (1 - ZNCC))` (Jin, Favaro, Soatto, ICCV 2001;
+//! see `gain`). The default, [`Illumination::Constant`], is Bouguet's model.
+//!
 //! Borders: at level 0 the whole window (plus the bilinear neighbour) must lie
 //! inside the image, else the point is [`LostReason::OutOfBounds`]; at coarser
 //! levels a window may hang over the border with the edge pixels repeated (as
@@ -49,16 +56,18 @@
 //!
 //! - [`sample`]: bilinear window sampling (single windows and pixels),
 //! - `window`: the row machinery of the tracker's inner loops,
+//! - `gain`: the gain-bias model's moments, kernel and normalised residual,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
 mod config;
+mod gain;
 pub mod sample;
 mod template;
 pub mod track;
 mod window;
 
-pub use config::{LkConfig, LkConfigError, LkError, MAX_WINDOW};
+pub use config::{Illumination, LkConfig, LkConfigError, LkError, MAX_WINDOW};
 pub use track::Tracker;
 
 use crate::geometry::Vec2;
@@ -76,7 +85,8 @@ pub enum LostReason {
     LowEigenvalue = 2,
     /// The iteration at level 0 did not settle within `max_iterations`.
     NotConverged = 3,
-    /// The residual exceeds `max_residual`.
+    /// The residual exceeds `max_residual` (of the illumination model; under
+    /// [`Illumination::GainBias`] also a flat window in the next image).
     LargeResidual = 4,
     /// Tracking back did not return within `fb_threshold` of the start.
     ForwardBackward = 5,
@@ -141,8 +151,10 @@ pub struct TrackResult {
     pub status: TrackStatus,
     /// Mean absolute intensity difference (levels, 0..=255) between the
     /// template and the tracked window at level 0 (measured at the last
-    /// iterate, within `epsilon` of `position`); `f32::INFINITY` when the
-    /// point was lost before it could be measured.
+    /// iterate, within `epsilon` of `position`); under
+    /// [`Illumination::GainBias`] the normalised residual
+    /// `sqrt(2 (1 - ZNCC))` (0..=2) instead; `f32::INFINITY` when the
+    /// point was lost before it could be measured (or its window was flat).
     pub residual: f32,
     /// Forward-backward distance in pixels, when the check ran.
     pub fb_error: Option<f32>,

@@ -11,7 +11,7 @@ use super::config::MAX_WINDOW;
 use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
 
 /// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
-const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
+pub(super) const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
 /// One template row: intensities, gradients or the column mask.
 pub(super) type TplRow = [f32; TPL];
 
@@ -55,7 +55,7 @@ pub(super) struct Template<'r> {
     pub(super) gx: &'r mut [TplRow],
     pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
-    mask: TplRow,
+    pub(super) mask: TplRow,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
@@ -216,32 +216,51 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<Mismatch> {
+        let [sx, sy, sa] = if with_abs {
+            self.sweep(image, c, clamp, &Plain::<true>)?
+        } else {
+            self.sweep(image, c, clamp, &Plain::<false>)?
+        };
+        Some(Mismatch {
+            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
+            abs: sa.iter().sum::<f32>(),
+        })
+    }
+
+    /// One pass of `kernel` over the window centred on `c` in `image`: its
+    /// per-lane sums; `None` when the window is outside (with `clamp`, only
+    /// when its centre is).
+    #[inline]
+    pub(super) fn sweep<K: RowKernel>(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        kernel: &K,
+    ) -> Option<K::Sums> {
         let n = self.n;
         let half = (n / 2) as f32;
         let clamp = clamp && inside(image, c);
         let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
-        Some(match (window::chunks(n), with_abs) {
-            (1, false) => self.mismatch_in::<1, false>(image, &src),
-            (2, false) => self.mismatch_in::<2, false>(image, &src),
-            (3, false) => self.mismatch_in::<3, false>(image, &src),
-            (_, false) => self.mismatch_in::<4, false>(image, &src),
-            (1, true) => self.mismatch_in::<1, true>(image, &src),
-            (2, true) => self.mismatch_in::<2, true>(image, &src),
-            (3, true) => self.mismatch_in::<3, true>(image, &src),
-            (_, true) => self.mismatch_in::<4, true>(image, &src),
+        Some(match window::chunks(n) {
+            1 => self.sweep_in::<1, K>(image, &src, kernel),
+            2 => self.sweep_in::<2, K>(image, &src, kernel),
+            3 => self.sweep_in::<3, K>(image, &src, kernel),
+            _ => self.sweep_in::<4, K>(image, &src, kernel),
         })
     }
 
-    /// [`Template::mismatch`] for rows of `C` chunks. Eight lanes in local
+    /// [`Template::sweep`] for rows of `C` chunks. Eight lanes in local
     /// arrays: the loop body is straight-line code over fixed-size arrays,
     /// which the compiler turns into SIMD; each lane sums its own columns.
     #[inline(always)]
-    fn mismatch_in<const C: usize, const ABS: bool>(
+    fn sweep_in<const C: usize, K: RowKernel>(
         &mut self,
         image: &ImageView<'_>,
         src: &SourceRows,
-    ) -> Mismatch {
-        let mut sums = [[0.0f32; LANES]; 3];
+        kernel: &K,
+    ) -> K::Sums {
+        let mut sums = K::Sums::default();
         let Template {
             n,
             t,
@@ -265,21 +284,17 @@ impl<'r> Template<'r> {
                     Some(next) => next,
                     None => src.row(image, i + 1, need, buf),
                 };
-                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         } else {
             for (i, ((t, gx), gy)) in rows.enumerate() {
                 let next = src.row(image, i + 1, need, buf);
-                mismatch_row::<C, ABS>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         }
-        let [sx, sy, sa] = sums;
-        Mismatch {
-            b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
-            abs: sa.iter().sum::<f32>(),
-        }
+        sums
     }
 
     /// `G⁻¹ b`.
@@ -351,6 +366,43 @@ fn gradient_row<const C: usize>(
             *xy += gx * gy;
             *yy += gy * gy;
         }
+    }
+}
+
+/// What one pass over a window sums per row: [`Template::sweep`] walks the
+/// rows, a kernel adds each row into its lane arrays.
+pub(super) trait RowKernel {
+    /// The per-lane sums (zero by default).
+    type Sums: Default;
+    /// Interpolates the next source row `next` horizontally into `h1`, blends
+    /// it with the previous one `h0` (`J = h0 + ay (h1 - h0)`) and adds the
+    /// row's terms against the template row into `sums`.
+    fn row<const C: usize>(
+        &self,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        sums: &mut Self::Sums,
+    );
+}
+
+/// The constant-brightness kernel: `sum (T - J) gx`, `sum (T - J) gy` and,
+/// with `ABS`, `sum |T - J|`.
+struct Plain<const ABS: bool>;
+
+impl<const ABS: bool> RowKernel for Plain<ABS> {
+    type Sums = [[f32; LANES]; 3];
+    #[inline(always)]
+    fn row<const C: usize>(
+        &self,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        sums: &mut [[f32; LANES]; 3],
+    ) {
+        mismatch_row::<C, ABS>(next, weights, h, tpl, sums);
     }
 }
 

@@ -2,11 +2,13 @@
 //! batch [`Tracker`].
 
 use crate::geometry::Vec2;
+use crate::image::ImageView;
 use crate::pyramid::Pyramid;
 
 use super::affine;
 use super::config::MAX_WINDOW;
-use super::config::{LkConfig, LkConfigError, LkError};
+use super::config::{Illumination, LkConfig, LkConfigError, LkError};
+use super::gain::{self, Moments};
 use super::sample::Bilinear;
 use super::template::{Template, TemplateFault, TemplateRows};
 use super::{LostReason, TrackCounts, TrackResult, TrackStatus};
@@ -190,7 +192,8 @@ impl Tracker {
         let mut iterations = 0;
         let mut converged = false;
         let mut have_l0 = false;
-        let mut last_abs = None;
+        let mut last_residual = None;
+        let mut moments = None;
         for level in (0..levels).rev() {
             let scale = 1.0 / (1u32 << level) as f32;
             let (Some(img_from), Some(img_to)) = (from.level(level), to.level(level)) else {
@@ -215,6 +218,20 @@ impl Tracker {
                     continue;
                 }
             };
+            // The gain-bias model needs the template's spread.
+            moments = match cfg.illumination {
+                Illumination::Constant => None,
+                Illumination::GainBias { .. } => match gain::moments(tpl) {
+                    Some(m) => Some(m),
+                    None if level == 0 => {
+                        return Pass::lost(point + flow, LostReason::LowEigenvalue);
+                    }
+                    None => {
+                        flow *= 2.0;
+                        continue;
+                    }
+                },
+            };
             let mut v = u + flow;
             let eps_sq = match cfg.coarse_epsilon {
                 Some(coarse) if level > 0 => coarse * coarse,
@@ -223,21 +240,22 @@ impl Tracker {
             let mut previous_step = Vec2::zeros();
             converged = false;
             iterations = 0;
-            last_abs = None;
+            last_residual = None;
             for k in 0..cfg.max_iterations {
-                let Some(m) = tpl.mismatch(&img_to, v, clamp, level == 0) else {
+                let Some((step, residual)) =
+                    self.mismatch(tpl, &img_to, v, clamp, level == 0, moments.as_ref())
+                else {
                     if level == 0 {
                         return Pass::lost(v, LostReason::OutOfBounds);
                     }
                     break;
                 };
-                let step = tpl.solve(&m.b);
                 v += step;
                 iterations = k + 1;
                 if step.norm_squared() <= eps_sq {
                     converged = true;
                     // Measured within epsilon of where the point ends: reuse it.
-                    last_abs = Some(m.abs);
+                    last_residual = Some(residual);
                     break;
                 }
                 // A step that undoes the previous one: settle in the middle.
@@ -266,8 +284,9 @@ impl Tracker {
             return Pass::lost(position, LostReason::OutOfBounds);
         };
         let residual = if cfg.affine_refinement && converged {
-            let Some(fit) = affine::refine(tpl, &base, position, cfg.max_iterations, cfg.epsilon)
-            else {
+            let (limit, epsilon) = (cfg.max_iterations, cfg.epsilon);
+            let fit = affine::refine(tpl, &base, position, limit, epsilon, moments.as_ref());
+            let Some(fit) = fit else {
                 return Pass::lost(position, LostReason::OutOfBounds);
             };
             position = fit.center;
@@ -280,18 +299,21 @@ impl Tracker {
             if Bilinear::new(&base, x, y, cfg.window, cfg.window).is_none() {
                 return Pass::lost(position, LostReason::OutOfBounds);
             }
-            let abs = match last_abs {
-                Some(abs) => abs,
-                None => match tpl.mismatch(&base, position, false, true) {
-                    Some(m) => m.abs,
+            match last_residual {
+                Some(residual) => residual,
+                None => match self.mismatch(tpl, &base, position, false, true, moments.as_ref()) {
+                    Some((_, residual)) => residual,
                     None => return Pass::lost(position, LostReason::OutOfBounds),
                 },
-            };
-            abs / (cfg.window * cfg.window) as f32
+            }
+        };
+        let max_residual = match cfg.illumination {
+            Illumination::Constant => cfg.max_residual,
+            Illumination::GainBias { max_residual } => max_residual,
         };
         let status = if !converged {
             TrackStatus::Lost(LostReason::NotConverged)
-        } else if residual > cfg.max_residual || residual.is_nan() {
+        } else if residual > max_residual || residual.is_nan() {
             TrackStatus::Lost(LostReason::LargeResidual)
         } else {
             TrackStatus::Tracked
@@ -301,6 +323,36 @@ impl Tracker {
             status,
             residual,
             iterations,
+        }
+    }
+}
+
+impl Tracker {
+    /// One pass over the window centred on `c` in `image` under the
+    /// configured illumination model (`moments`: the template's, for
+    /// [`Illumination::GainBias`]): the update step and, with `measure`, the
+    /// residual the track is judged by (else 0); `None` when the window is
+    /// outside.
+    #[inline]
+    fn mismatch(
+        &self,
+        tpl: &mut Template<'_>,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        measure: bool,
+        moments: Option<&Moments>,
+    ) -> Option<(Vec2, f32)> {
+        match moments {
+            None => {
+                let m = tpl.mismatch(image, c, clamp, measure)?;
+                let residual = m.abs / (self.config.window * self.config.window) as f32;
+                Some((tpl.solve(&m.b), residual))
+            }
+            Some(moments) => {
+                let (b, residual) = gain::mismatch(tpl, image, c, clamp, measure, moments)?;
+                Some((tpl.solve(&b), residual))
+            }
         }
     }
 }
