@@ -14,21 +14,25 @@
 //! into the camera's translation that the filter fuses, and pulled the
 //! learned slip and radii back towards the uncorrected wheels.
 
+use ego_ekf::grip::MAX_SLIP;
 use vslam_core::sensors::{OdometryDelta, WheelRates};
 
-/// The rolling-distance ratio below which the correction is not applied
-/// (the learned radii would have to be 20 % off the nominal ones).
-const MIN_RATIO: f32 = 0.8;
-/// The ratio above which the correction is not applied.
-const MAX_RATIO: f32 = 1.2;
+/// The smallest learned-to-nominal rolling-distance ratio taken (the
+/// learned radii 20 % below the nominal ones); outside `[0.8, 1.2]` the
+/// radii are not corrected.
+const MIN_RADIUS_RATIO: f32 = 0.8;
+/// The largest learned-to-nominal rolling-distance ratio taken.
+const MAX_RADIUS_RATIO: f32 = 1.2;
 
 /// `delta` of the wheel `rates` integrated with the `nominal` radii
 /// `[left, right]` (m), corrected to the `learned` radii and the floor's
-/// expected `slip`. The forward rolling distance decides the ratio; when
-/// the wheels turn against each other (a turn in place) and the forward
-/// rolling distance is below a tenth of either wheel's, the mean radius
-/// ratio is used. A ratio outside `[0.8, 1.2]` or non-finite inputs leave
-/// the delta as it is.
+/// expected `slip`. The forward rolling distance decides the radius ratio;
+/// when the wheels turn against each other (a turn in place) and the
+/// forward rolling distance is below a tenth of either wheel's, the mean
+/// radius ratio is used. A radius ratio outside `[0.8, 1.2]` or from
+/// non-finite inputs leaves the radii uncorrected; a slip outside
+/// `[0, MAX_SLIP]` (the filter's range, [`ego_ekf::grip::MAX_SLIP`]) or
+/// non-finite leaves the slip out.
 pub fn corrected_delta(
     delta: &OdometryDelta,
     rates: &WheelRates,
@@ -46,8 +50,18 @@ pub fn corrected_delta(
     } else {
         (l_l + l_r) / (n_l + n_r)
     };
+    let radius_ratio = if (MIN_RADIUS_RATIO..=MAX_RADIUS_RATIO).contains(&radius_ratio) {
+        radius_ratio
+    } else {
+        1.0
+    };
+    let slip = if (0.0..=MAX_SLIP).contains(&slip) {
+        slip
+    } else {
+        0.0
+    };
     let ratio = radius_ratio * (1.0 - slip);
-    if !(ratio.is_finite() && (MIN_RATIO..=MAX_RATIO).contains(&ratio)) {
+    if ratio == 1.0 {
         return *delta;
     }
     OdometryDelta {
@@ -109,11 +123,20 @@ mod tests {
     }
 
     #[test]
-    fn implausible_or_non_finite_corrections_are_not_applied() {
+    fn implausible_radii_or_slips_are_left_out() {
         let d = delta();
         let r = rates(8.0, 8.0);
+        // Radii 43 % off: not taken; the slip still is.
         assert_eq!(corrected_delta(&d, &r, [0.035; 2], [0.05; 2], 0.0), d);
-        assert_eq!(corrected_delta(&d, &r, [0.035; 2], [0.035; 2], 0.5), d);
+        let c = corrected_delta(&d, &r, [0.035; 2], [0.05; 2], 0.1);
+        assert!((c.path_length / d.path_length - 0.9).abs() < 1e-5);
+        // A large slip the filter may learn is taken whole.
+        let c = corrected_delta(&d, &r, [0.035; 2], [0.035; 2], 0.5);
+        assert!((c.path_length / d.path_length - 0.5).abs() < 1e-5);
+        // Outside the filter's range or not finite: left out.
+        assert_eq!(corrected_delta(&d, &r, [0.035; 2], [0.035; 2], 0.6), d);
+        assert_eq!(corrected_delta(&d, &r, [0.035; 2], [0.035; 2], -0.1), d);
+        assert_eq!(corrected_delta(&d, &r, [0.035; 2], [0.035; 2], f32::NAN), d);
         assert_eq!(corrected_delta(&d, &r, [0.035; 2], [f32::NAN; 2], 0.0), d);
         assert_eq!(corrected_delta(&d, &r, [0.0; 2], [0.035; 2], 0.0), d);
     }
