@@ -8,9 +8,9 @@
 //! fails if the model is disconnected).
 //! Run with `--nocapture` to see the measured numbers.
 
+mod photo_corners;
+
 use test_support::images::{Gray, load};
-use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
-use vslam_core::geometry::Vec2;
 use vslam_core::lk::{Illumination, LkConfig, LostReason, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
 
@@ -138,16 +138,8 @@ fn track_moved(name: &str, light: &Relight, config: LkConfig, shift: (f64, f64))
     let (va, vb) = (view(&first), view(&second));
     let pa = Pyramid::build(&va, 3, &mut st_a).unwrap();
     let pb = Pyramid::build(&vb, 3, &mut st_b).unwrap();
-    let corner_config = CornerConfig {
-        min_distance: 8.0,
-        border: 16,
-        ..CornerConfig::default()
-    };
-    let mut scratch = vec![0f32; scratch_len(W, H, corner_config.block_size)];
-    let mut corners = [Corner::default(); 100];
-    let n = detect_corners(&va, &corner_config, &mut scratch, &mut corners).unwrap();
-    assert_eq!(n, 100, "{name}: only {n} corners");
-    let points: Vec<Vec2> = corners[..n].iter().map(Corner::position).collect();
+    let points = photo_corners::hundred_corners(&va, name);
+    let n = points.len();
     let mut results = vec![TrackResult::default(); n];
     let counts = Tracker::new(config)
         .unwrap()

@@ -2,9 +2,9 @@
 //! tracked corners must land where the homography sends them.
 //! Run with `--nocapture` to see the measured numbers.
 
+mod photo_corners;
+
 use test_support::images::{Gray, Homography, load, median};
-use vslam_core::corners::{Corner, CornerConfig, detect_corners, scratch_len};
-use vslam_core::geometry::Vec2;
 use vslam_core::lk::{LkConfig, TrackResult, Tracker};
 use vslam_core::pyramid::{Pyramid, PyramidStorage, storage_bytes};
 
@@ -33,17 +33,8 @@ fn track_photo(
     let pa = Pyramid::build(&va, 3, &mut st_a).unwrap();
     let pb = Pyramid::build(&vb, 3, &mut st_b).unwrap();
 
-    let corner_config = CornerConfig {
-        min_distance: 8.0,
-        border: 16,
-        ..CornerConfig::default()
-    };
-    let mut scratch = vec![0f32; scratch_len(W, H, corner_config.block_size)];
-    let mut corners = [Corner::default(); 100];
-    let n = detect_corners(&va, &corner_config, &mut scratch, &mut corners).unwrap();
-    assert_eq!(n, 100, "{name}: only {n} corners");
-
-    let points: Vec<Vec2> = corners[..n].iter().map(Corner::position).collect();
+    let points = photo_corners::hundred_corners(&va, name);
+    let n = points.len();
     let mut results = vec![TrackResult::default(); n];
     let tracker = Tracker::new(config).unwrap();
     let counts = tracker.track(&pa, &pb, &points, &mut results).unwrap();
