@@ -15,6 +15,7 @@ use core::cell::RefCell;
 
 use cortex_m::interrupt::{self, Mutex};
 use cortex_m_rt::entry;
+use traction::ego_ekf::ImuPlausibility;
 use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::vslam_core::robot::RobotDescription;
 use traction::vslam_core::sensors::{RawImuSample, WheelTicks};
@@ -31,12 +32,15 @@ fn robot() -> RobotDescription {
     RobotDescription::robot_vacuum()
 }
 
-/// A stand-in IMU read at `t`: a robot standing still.
+/// A stand-in IMU read at `t`: a robot standing still, with a real IMU's
+/// noise (here the time stamp's low bits), since a reading repeated bit for
+/// bit is refused as frozen.
 fn read_imu(t: Timestamp) -> RawImuSample {
+    let noise = ((t.0 / 4_000_000) % 7) as f32 * 1e-4;
     RawImuSample {
         t,
-        gyro: [0.0; 3],
-        accel: [0.0, 0.0, 9.81],
+        gyro: [noise, -noise, 0.5 * noise],
+        accel: [noise, 0.0, 9.81 + noise],
     }
 }
 
@@ -59,7 +63,11 @@ fn main() -> ! {
     let configured = interrupt::free(|cs| {
         let mut est = ESTIMATOR.borrow(cs).borrow_mut();
         EstimatorConfig::from_robot(&robot())
-            .map(|config| est.configure(&config).is_ok())
+            .map(|mut config| {
+                // A real IMU: a reading repeated bit for bit is a frozen output.
+                config.filter.imu.plausibility = Some(ImuPlausibility::FIELD);
+                est.configure(&config).is_ok()
+            })
             .unwrap_or(false)
     });
     if !configured {

@@ -24,7 +24,7 @@
 
 use core::fmt::{self, Write};
 
-use traction::ego_ekf::EgoEkf;
+use traction::ego_ekf::{EgoEkf, ImuPlausibility};
 use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, Part, Probe};
 use traction::frontend::{FrontEndBuffers, FrontEndConfig};
 use traction::navigate::{Command, NavConfig, Navigator, Point, Policy};
@@ -262,12 +262,16 @@ pub fn robot(h: &Header) -> Result<RobotDescription, RunError> {
 }
 
 /// The estimator's configuration for the header's robot, through
-/// [`EstimatorConfig::from_robot`] as `host-sim replay` builds it.
+/// [`EstimatorConfig::from_robot`] as `host-sim replay` builds it, the
+/// IMU judged as a real one's ([`ImuPlausibility::FIELD`]).
 pub fn config(h: &Header) -> Result<EstimatorConfig, RunError> {
-    EstimatorConfig::from_robot(&robot(h)?).map_err(|e| match e {
+    let mut config = EstimatorConfig::from_robot(&robot(h)?).map_err(|e| match e {
         EstimatorError::Robot(e) => RunError::Robot(e),
         _ => RunError::Config("estimator"),
-    })
+    })?;
+    // A real IMU: a reading repeated bit for bit is a frozen output.
+    config.filter.imu.plausibility = Some(ImuPlausibility::FIELD);
+    Ok(config)
 }
 
 /// What the run ends with: the state the firmware prints and the host

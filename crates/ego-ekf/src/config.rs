@@ -11,6 +11,7 @@ use vslam_core::robot::{FlowDescription, RobotDescription, RobotError, Steering}
 use vslam_core::sensors::{FlowOptics, FlowOpticsError};
 
 use crate::grip::GripParams;
+use crate::plausibility::ImuPlausibility;
 use crate::state::{Quat, Vec3};
 use crate::wheel::skid::SkidConfig;
 
@@ -559,6 +560,11 @@ pub struct ImuConfig {
     /// ATE worse on some seeds (`host-sim accuracy` with it on; see the
     /// module doc of [`crate::observability`]).
     pub constrain_heading: bool,
+    /// Refuse readings the robot cannot have: a rate jump beyond its
+    /// angular acceleration, an output frozen bit for bit
+    /// ([`crate::plausibility`]); `None` integrates every reading within
+    /// full scale.
+    pub plausibility: Option<ImuPlausibility>,
 }
 
 impl Default for ImuConfig {
@@ -578,6 +584,7 @@ impl ImuConfig {
         estimate_gyro_scale: false,
         gyro_scale_random_walk: 1.0e-5,
         constrain_heading: false,
+        plausibility: Some(ImuPlausibility::DEFAULT),
     };
 }
 
@@ -869,6 +876,9 @@ impl FilterConfig {
         }
         if self.vibration.is_some_and(|v| !v.is_valid()) {
             return Err(ConfigError::BadNoise);
+        }
+        if self.imu.plausibility.is_some_and(|p| !p.is_valid()) {
+            return Err(ConfigError::BadLimit);
         }
         if !noise
             .iter()

@@ -16,6 +16,7 @@ use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
 use crate::init::{Initialiser, StillStart};
 use crate::observability;
+use crate::plausibility::PlausibilityCheck;
 use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
     propagate_nominal, vertical_deviation,
@@ -136,6 +137,8 @@ pub struct EgoEkf {
     initialised: bool,
     initialiser: Initialiser,
     imu_clock: SampleClock,
+    /// Rate jumps and frozen readings (see [`crate::plausibility`]).
+    plausibility: PlausibilityCheck,
     imu_counts: SampleCounts,
     last_step: Option<ImuStep>,
     still: StillDetector,
@@ -258,6 +261,7 @@ impl EgoEkf {
             initialised,
             initialiser,
             imu_clock,
+            plausibility,
             imu_counts,
             last_step,
             still,
@@ -282,6 +286,7 @@ impl EgoEkf {
         *initialised = false;
         *initialiser = Initialiser::new();
         *imu_clock = SampleClock::new(config.imu.max_dt_ns);
+        *plausibility = PlausibilityCheck::new();
         *imu_counts = SampleCounts::new();
         *last_step = None;
         *still = StillDetector::new();
@@ -351,6 +356,7 @@ impl EgoEkf {
             initialised: false,
             initialiser: Initialiser::new(),
             imu_clock: SampleClock::new(config.imu.max_dt_ns),
+            plausibility: PlausibilityCheck::new(),
             imu_counts: SampleCounts::new(),
             last_step: None,
             still: StillDetector::new(),
@@ -433,8 +439,11 @@ impl EgoEkf {
     /// of the last moving step; see `clone_if_due`).
     ///
     /// Before initialisation the sample feeds the still-sample average and is
-    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps and samples at
-    /// or beyond the configured full scale ([`Reject::Saturated`]) are
+    /// counted as [`Reject::NotReady`]. Bad time stamps, gaps, samples at
+    /// or beyond the configured full scale ([`Reject::Saturated`]) and,
+    /// with `ImuConfig::plausibility`, rate jumps beyond the robot's angular
+    /// acceleration ([`Reject::OutOfRange`]) and frozen readings
+    /// ([`Reject::LowQuality`], see [`crate::plausibility`]) are
     /// rejected with their reason and leave
     /// the state untouched, except that the sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
@@ -455,7 +464,15 @@ impl EgoEkf {
     fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
         sample.check_range(self.config.imu.gyro_max, self.config.imu.accel_max)?;
         let previous = self.imu_clock.last();
+        // A time stamp the clock refuses is refused for that reason, not judged.
+        let in_order = previous.is_none_or(|p| sample.t().nanos_since(p).is_some_and(|d| d > 0));
+        if in_order && let Some(cfg) = &self.config.imu.plausibility {
+            self.plausibility.check(cfg, sample)?;
+        }
         let dt = self.imu_clock.accept(sample.t());
+        if in_order {
+            self.plausibility.accepted(sample.t(), sample.gyro());
+        }
         if self.initialised
             && dt == Err(Reject::Gap)
             && let Some(gap_ns) = previous.and_then(|p| sample.t().nanos_since(p))

@@ -75,6 +75,7 @@ pub mod grip;
 pub mod init;
 mod kernels;
 pub mod observability;
+pub mod plausibility;
 pub mod propagate;
 pub mod recovery;
 pub mod reference;
@@ -97,5 +98,6 @@ pub use filter::{
 };
 pub use flow::FlowFused;
 pub use grip::{GripError, GripParams};
+pub use plausibility::ImuPlausibility;
 pub use recovery::{RecoveryCounts, ResetSource, Verdict};
 pub use wheel::WheelInnovation;

@@ -1,8 +1,9 @@
 //! Accounting: initialisation, every rejection reason with its counter, and
 //! that rejected samples leave the state untouched.
 
+use ego_ekf::config::ImuConfig;
 use ego_ekf::state::{Quat, STANDARD_GRAVITY, Vec3};
-use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig, GripParams};
+use ego_ekf::{EgoEkf, ExplicitStart, FilterConfig, FlowConfig, GripParams, ImuPlausibility};
 use vslam_core::geometry::Extrinsics;
 use vslam_core::sensors::{FlowOptics, FlowSample, ImuSample, WheelRates};
 use vslam_core::{Reject, Timestamp};
@@ -104,6 +105,82 @@ fn bad_imu_samples_are_rejected_with_reasons_and_change_nothing() {
         ImuSample::new(Timestamp(0), [f32::NAN, 0.0, 0.0], [0.0; 3]),
         Err(Reject::NonFinite)
     );
+}
+
+#[test]
+fn implausible_imu_readings_are_refused_and_change_nothing() {
+    let config = FilterConfig {
+        imu: ImuConfig {
+            plausibility: Some(ImuPlausibility::FIELD),
+            ..ImuConfig::default()
+        },
+        ..FilterConfig::default()
+    };
+    let mut f = EgoEkf::new(config).unwrap();
+    level_start(&mut f, 1_000 * DT);
+    // Turning at 0.3 rad/s with a noisy accelerometer.
+    let turning = |k: u64, gz: f32| {
+        let noise = (k % 5) as f32 * 1e-3;
+        ImuSample::new(
+            Timestamp(k * DT),
+            [0.0, 0.0, gz],
+            [noise, 0.0, STANDARD_GRAVITY],
+        )
+        .unwrap()
+    };
+    for k in 1_001..1_010 {
+        f.propagate(&turning(k, 0.3)).unwrap();
+    }
+    let (x, p) = (*f.state(), *f.covariance());
+    // A hundredfold rate within full scale: a jump the robot cannot make.
+    assert_eq!(f.propagate(&turning(1_010, 30.0)), Err(Reject::OutOfRange));
+    assert_eq!((*f.state(), *f.covariance()), (x, p));
+    // The next true reading integrates over both steps.
+    let step = f.propagate(&turning(1_011, 0.3)).unwrap();
+    assert!(
+        (step.dt - 2.0 * DT as f32 * 1e-9).abs() < 1e-9,
+        "{}",
+        step.dt
+    );
+    // A frozen output: repeats are integrated for 20 ms, then refused.
+    let frozen = turning(1_011, 0.3);
+    let mut outcomes = Vec::new();
+    for k in 1_012..1_020 {
+        let s = ImuSample::new(
+            Timestamp(k * DT),
+            (*frozen.gyro()).into(),
+            (*frozen.accel()).into(),
+        )
+        .unwrap();
+        let before = (*f.state(), *f.covariance());
+        let r = f.propagate(&s);
+        if r.is_err() {
+            assert_eq!((*f.state(), *f.covariance()), before);
+        }
+        outcomes.push(r.err());
+    }
+    let low = Some(Reject::LowQuality);
+    assert_eq!(
+        outcomes,
+        [None, None, None, None, None, low, low, low],
+        "refused from 24 ms after the reading"
+    );
+    let c = f.imu_counts();
+    assert_eq!(
+        (
+            c.rejected(Reject::OutOfRange),
+            c.rejected(Reject::LowQuality)
+        ),
+        (1, 3)
+    );
+    // The default configuration integrates repeats: noise-free readings
+    // (a test bench) are not refused.
+    let mut f = EgoEkf::new(FilterConfig::default()).unwrap();
+    level_start(&mut f, 0);
+    for k in 1..100 {
+        f.propagate(&rest(k * DT)).unwrap();
+    }
+    assert_eq!(f.imu_counts().fused(), 99);
 }
 
 #[test]

@@ -282,3 +282,55 @@ fn the_skid_steer_learns_its_track_on_the_ice_excerpt() {
     assert!(diff["learned"]["track_factor"].is_null(), "{diff}");
     assert!((bias_z(&diff) - 0.0380).abs() < 0.001, "{diff}");
 }
+
+/// The IMU plausibility check (`ego_ekf::plausibility`, on in every replay)
+/// refuses no reading of the BorealTC excerpts: their largest rate change
+/// between two 100 Hz readings (0.30 rad/s on snow, 0.06 on ice) is well
+/// within the 1.0 rad/s it allows, and no reading repeats.
+#[test]
+fn the_imu_plausibility_check_refuses_no_real_reading() {
+    for (terrain, run) in [("SNOW", "10"), ("ICE", "06")] {
+        let imu = real(&format!("borealtc/{terrain}/imu_{run}.csv"));
+        let rows: Vec<Vec<f64>> = std::fs::read_to_string(&imu)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        let largest = rows
+            .windows(2)
+            .map(|w| {
+                (1..4)
+                    .map(|i| (w[1][i] - w[0][i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0f64, f64::max);
+        assert!(largest < 0.5, "{terrain}: {largest}");
+        let d = tmp(&format!("plausible-{terrain}"));
+        ok(host_sim()
+            .args(["import", "borealtc"])
+            .arg(&imu)
+            .arg(real(&format!("borealtc/{terrain}/pro_{run}.csv")))
+            .arg("--out")
+            .arg(d.join("ds"))
+            .output()
+            .unwrap());
+        ok(host_sim()
+            .arg("replay")
+            .arg(d.join("ds"))
+            .arg("--out")
+            .arg(d.join("out"))
+            .output()
+            .unwrap());
+        let imu_counts = &json(&d.join("out/report.json"))["counts"]["imu"];
+        let rejected = &imu_counts["rejected"];
+        for reason in ["out_of_range", "low_quality"] {
+            assert!(
+                rejected[reason].as_u64().unwrap_or(0) == 0,
+                "{terrain}: {imu_counts}"
+            );
+        }
+        assert!(imu_counts["fused"].as_u64().unwrap() as usize + 60 > rows.len());
+    }
+}

@@ -18,13 +18,15 @@ pub enum Reject {
     Duplicate = 2,
     /// The step from the previous sample is longer than the consumer allows.
     Gap = 3,
-    /// A field lies outside what the sensor can physically report.
+    /// A field lies outside what the sensor can report or the robot can
+    /// physically do (a wheel speed, a gyro rate's jump).
     OutOfRange = 4,
     /// A field sits at the sensor's limit, so the true value is unknown.
     Saturated = 5,
     /// The measurement failed the consumer's statistical (chi-square) gate.
     Gated = 6,
-    /// The sensor marked the sample as carrying no usable information.
+    /// The sample carries no usable information: the sensor marked it so,
+    /// or its output froze.
     LowQuality = 7,
     /// The bus transaction failed.
     Bus = 8,

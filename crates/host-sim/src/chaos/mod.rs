@@ -213,9 +213,18 @@ impl ChaosRun {
         );
         for &i in &self.unexpected() {
             let r = &self.run.results[i];
+            let at: Vec<String> = r
+                .unexpected_at_s
+                .iter()
+                .map(|t| format!("+{t:.3}"))
+                .collect();
             s += &format!(
-                "  UNEXPECTED {}: {} x {} observed {:?}\n",
-                r.spec, r.injected, r.expected, r.observed
+                "  UNEXPECTED {}: {} x {} observed {:?}, unexpected at {} s\n",
+                r.spec,
+                r.injected,
+                r.expected,
+                r.observed,
+                at.join(" ")
             );
         }
         s += &format!(

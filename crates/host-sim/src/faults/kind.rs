@@ -69,8 +69,8 @@ impl Stage {
 pub enum Expected {
     /// Rejected, counted under this reason (`gated` included).
     Reject(Reject),
-    /// Fused: the estimator cannot tell the value from a true one (an IMU
-    /// sample is integrated, never gated), or it is low quality used as noise.
+    /// Fused: the estimator cannot tell the value from a true one (a frozen
+    /// camera frame is no motion seen), or it is low quality used as noise.
     Fused,
     /// Fused or gated: a plausible value the chi-square gate judges.
     FusedOrGated,
@@ -79,9 +79,10 @@ pub enum Expected {
     /// from rest is a speed the wheels can have: the filter's gate
     /// refuses it).
     OutOfRangeOrGated,
-    /// Fused, or saturated when the spoiled value is beyond the sensor's
-    /// full scale (a hundredfold rate while the robot turns).
-    FusedOrSaturated,
+    /// Out of range (a rate jump beyond the robot's angular acceleration),
+    /// or saturated when the spoiled value is beyond the sensor's full
+    /// scale (a hundredfold rate while the robot turns).
+    OutOfRangeOrSaturated,
 }
 
 impl Expected {
@@ -92,7 +93,7 @@ impl Expected {
             Expected::Fused => "fused",
             Expected::FusedOrGated => "fused_or_gated",
             Expected::OutOfRangeOrGated => "out_of_range_or_gated",
-            Expected::FusedOrSaturated => "fused_or_saturated",
+            Expected::OutOfRangeOrSaturated => "out_of_range_or_saturated",
         }
     }
 
@@ -105,8 +106,8 @@ impl Expected {
             Expected::OutOfRangeOrGated => {
                 observed == Reject::OutOfRange.name() || observed == Reject::Gated.name()
             }
-            Expected::FusedOrSaturated => {
-                observed == "fused" || observed == Reject::Saturated.name()
+            Expected::OutOfRangeOrSaturated => {
+                observed == Reject::OutOfRange.name() || observed == Reject::Saturated.name()
             }
         }
     }
@@ -338,8 +339,8 @@ impl FaultKind {
         use FaultKind::*;
         match self {
             ImuNan | ImuInf => Expected::Reject(Reject::NonFinite),
-            ImuOutlier => Expected::FusedOrSaturated,
-            ImuStuck => Expected::Fused,
+            ImuOutlier => Expected::OutOfRangeOrSaturated,
+            ImuStuck => Expected::Reject(Reject::LowQuality),
             ImuSaturated | FlowLimit => Expected::Reject(Reject::Saturated),
             WheelOutlier => Expected::OutOfRangeOrGated,
             WheelWrap => Expected::Reject(Reject::OutOfRange),
@@ -379,10 +380,12 @@ impl FaultKind {
             ImuNan => "gyro x NaN in COUNT samples -> non_finite",
             ImuInf => "accel y +inf in COUNT samples -> non_finite",
             ImuOutlier => {
-                "gyro z x100 in COUNT samples -> fused (an IMU sample is integrated, never gated; saturated beyond full scale)"
+                "gyro z x100 in COUNT samples -> out_of_range (a rate jump the robot cannot make; saturated beyond full scale; a spike within twice the allowed change is not judged)"
             }
             ImuSaturated => "gyro z at full scale for DUR (default 0.5 s) -> saturated",
-            ImuStuck => "IMU repeats its last reading for DUR (0.5 s) -> fused",
+            ImuStuck => {
+                "IMU repeats its last reading for DUR (0.5 s) -> low_quality once 20 ms old (a frozen output; earlier repeats are not judged)"
+            }
             WheelOutlier => {
                 "count increment x100 in COUNT samples -> out_of_range (gated when still a possible speed)"
             }

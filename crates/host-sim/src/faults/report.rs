@@ -54,7 +54,13 @@ pub struct FaultOutcome {
     pub observed: BTreeMap<String, u32>,
     /// Last time stamp of a spoiled sample, or the end of the window, ns.
     pub window_end_ns: u64,
+    /// Seconds after the fault's start of the first [`UNEXPECTED_LISTED`]
+    /// spoiled samples whose outcome did not meet the expectation.
+    pub unexpected_at_s: Vec<f64>,
 }
+
+/// How many unexpected samples a [`FaultOutcome`] lists by time.
+pub const UNEXPECTED_LISTED: usize = 8;
 
 /// Matches `log` with the replay's `outcomes` (processing order).
 pub fn outcomes(
@@ -75,6 +81,7 @@ pub fn outcomes(
             let mut injected = 0;
             let mut as_expected = 0;
             let mut end = spec.end_ns();
+            let mut unexpected_at_s = Vec::new();
             for inj in log.injected.iter().filter(|x| x.fault == i) {
                 injected += 1;
                 end = end.max(inj.t.0);
@@ -85,6 +92,8 @@ pub fn outcomes(
                     .unwrap_or("missing");
                 if expected.accepts(o) {
                     as_expected += 1;
+                } else if unexpected_at_s.len() < UNEXPECTED_LISTED {
+                    unexpected_at_s.push(inj.t.0 as f64 * 1e-9 - spec.start);
                 }
                 *observed.entry(o.to_string()).or_default() += 1;
             }
@@ -96,6 +105,7 @@ pub fn outcomes(
                 as_expected,
                 observed,
                 window_end_ns: end,
+                unexpected_at_s,
             }
         })
         .collect()
@@ -104,7 +114,9 @@ pub fn outcomes(
 /// The `faults` section of `report.json`: the plan, then per fault its
 /// kind, stream, stage, window, the samples spoiled (`injected`) and
 /// removed (`dropped`), the `expected` outcome, how many met it
-/// (`as_expected`) and every outcome `observed`; and the totals per kind.
+/// (`as_expected`), every outcome `observed` and when the first unexpected
+/// ones came (`unexpected_at_s`, seconds after the start); and the totals
+/// per kind.
 pub fn faults_section(log: &FaultLog, results: &[FaultOutcome]) -> Value {
     let faults: Vec<Value> = log
         .plan
@@ -124,6 +136,7 @@ pub fn faults_section(log: &FaultLog, results: &[FaultOutcome]) -> Value {
                 "expected": r.expected,
                 "as_expected": r.as_expected,
                 "observed": r.observed,
+                "unexpected_at_s": r.unexpected_at_s,
             })
         })
         .collect();

@@ -13,7 +13,7 @@
 use super::kind::{FaultKind, Sensor, Stage};
 use super::spec::{FaultPlan, FaultSpec};
 use std::collections::VecDeque;
-use traction::ego_ekf::FilterConfig;
+use traction::ego_ekf::{FilterConfig, ImuPlausibility};
 use traction::vslam_core::Timestamp;
 use traction::vslam_core::sensors::{FlowSample, RawImuSample, WheelTicks};
 use traction::wheel_odom::odometry::DiffDriveParams;
@@ -63,6 +63,13 @@ pub trait SensorSample: Copy {
         previous: Option<&Self>,
         k: u32,
     ) -> bool;
+    /// Whether this spoiled sample is judged against the kind's expected
+    /// outcome (the default): a spoiled value the estimator cannot tell
+    /// from a true one is not (an IMU repeat within an output period, a
+    /// spike within what the robot can do).
+    fn judged(&self, _kind: FaultKind, _before: Option<&Self>) -> bool {
+        true
+    }
 }
 
 impl SensorSample for RawImuSample {
@@ -89,6 +96,27 @@ impl SensorSample for RawImuSample {
             _ => return false,
         }
         true
+    }
+
+    /// A frozen reading is judged once the filter's plausibility check
+    /// can tell (more than `frozen_after_ns` after the reading it repeats);
+    /// a spike once it lies beyond twice the rate change the check allows
+    /// since the last reading before the fault, or at full scale.
+    fn judged(&self, kind: FaultKind, before: Option<&Self>) -> bool {
+        let check = ImuPlausibility::FIELD;
+        let since = |b: &Self| self.t.0.saturating_sub(b.t.0);
+        match (kind, before) {
+            (FaultKind::ImuStuck, Some(b)) => check.frozen_after_ns.is_some_and(|f| since(b) > f),
+            (FaultKind::ImuOutlier, Some(b)) => {
+                let jump = (0..3)
+                    .map(|i| (self.gyro[i] - b.gyro[i]).powi(2))
+                    .sum::<f32>()
+                    .sqrt();
+                let full_scale = FilterConfig::default().imu.gyro_max;
+                self.gyro[2].abs() >= full_scale || jump > 2.0 * check.allowance(since(b))
+            }
+            _ => true,
+        }
     }
 }
 
@@ -311,7 +339,9 @@ impl<S: SensorSample, I: Iterator<Item = S>> FaultInjector<I> {
                     && sample.spoil(kind, before.as_ref(), self.previous.as_ref(), a.done) =>
                 {
                     a.done += 1;
-                    by.push(a.index);
+                    if sample.judged(kind, before.as_ref()) {
+                        by.push(a.index);
+                    }
                 }
                 _ if windowed => {}
                 _ if a.remaining == 0 => {}
@@ -336,7 +366,9 @@ impl<S: SensorSample, I: Iterator<Item = S>> FaultInjector<I> {
                 {
                     a.done += 1;
                     a.remaining -= 1;
-                    by.push(a.index);
+                    if sample.judged(kind, before.as_ref()) {
+                        by.push(a.index);
+                    }
                 }
                 _ => {}
             }
@@ -466,7 +498,21 @@ mod tests {
             s.gyro[2] = i as f32;
         }
         let (out, spoiled, _) = inject(&input, &"imu-stuck@0.2+0.1".parse().unwrap(), Stage::Log);
-        assert_eq!(spoiled.len(), 25);
+        // All 25 repeat sample 49 (196 ms); judged are those more than
+        // 20 ms after it: from sample 55 (220 ms) on.
+        assert_eq!(spoiled.len(), 20);
+        assert_eq!(spoiled[0].t, Timestamp(220_000_000));
+        // A hundredfold rate is judged when it lies beyond twice the change
+        // the filter allows (0.7 rad/s a 4 ms step): turning at 0.2 rad/s,
+        // not at 0.005 rad/s; the sample is spoiled either way.
+        for (rate, judged) in [(0.2f32, 3), (0.005, 0)] {
+            let mut input = imu(200);
+            input.iter_mut().for_each(|s| s.gyro[2] = rate);
+            let (out, spoiled, _) =
+                inject(&input, &"imu-outlier@0.2x3".parse().unwrap(), Stage::Log);
+            assert_eq!(spoiled.len(), judged, "{rate}");
+            assert_eq!(out[50].sample.gyro[2], 100.0 * rate);
+        }
         assert!(out[50..75].iter().all(|d| d.sample.gyro[2] == 49.0));
         assert_eq!(out[75].sample.gyro[2], 75.0);
         let wheels: Vec<WheelTicks> = (0..10)

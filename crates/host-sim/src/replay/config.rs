@@ -7,6 +7,7 @@ use crate::asl::{CameraMeta, Dataset, SegMeta, WheelMeta};
 use crate::calibrate::WheelGeometry;
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
+use traction::ego_ekf::ImuPlausibility;
 use traction::ego_ekf::surface::floor_model::{CELL, CLASS_NAMES};
 use traction::ego_ekf::surface::{
     ClassConfig, GripModel, GripTable, GroundCamera, SlipConfig, SurfaceConfig, SurfaceKind,
@@ -283,6 +284,8 @@ pub fn wheel_rate_hz(ds: &Dataset) -> Option<f32> {
 /// [`FilterConfig::with_imu_rate`](traction::ego_ekf::FilterConfig::with_imu_rate)),
 /// the wheels' re-examination count for their rate ([`wheel_rate_hz`],
 /// [`FilterConfig::with_wheel_rate`](traction::ego_ekf::FilterConfig::with_wheel_rate)),
+/// the IMU's readings judged as a real IMU's
+/// ([`ImuPlausibility::FIELD`]: rate jumps and frozen outputs refused),
 /// the surface model from `seg0`, and the scale pipeline's selection method,
 /// composition and distance and the scale pipeline's distrust of the wheels
 /// passed to the EKF as `options` say.
@@ -322,6 +325,9 @@ pub(crate) fn estimator_config(
         config.wheel_distrust = None;
     }
     config.filter.imu.estimate_gyro_scale = options.gyro_scale;
+    // Simulated and recorded IMUs are noisy: a reading repeated bit for bit
+    // is a frozen output.
+    config.filter.imu.plausibility = Some(ImuPlausibility::FIELD);
     if let Some(m) = options.scale_method {
         config.scale.method = m;
     }
