@@ -12,9 +12,7 @@
 //!   measurement, and keep their values;
 //! - wheels: the forward and differential noise's standard deviation is
 //!   multiplied by `1/sqrt(weight)` (on top of the scale pipeline's
-//!   distrust, [`EgoEkf::distrust_wheels_until`]); their gate still tests
-//!   the uninflated noise, so a sample the full-weight filter would gate is
-//!   gated (`crate::wheel::update::update_gated_on`);
+//!   distrust, [`EgoEkf::distrust_wheels_until`]);
 //! - flow sensor: the velocity's standard deviation is multiplied by
 //!   `1/sqrt(weight)`.
 //!

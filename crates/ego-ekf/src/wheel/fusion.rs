@@ -2,11 +2,7 @@
 //! the forward rows, and the counters.
 //!
 //! The forward and differential rows are each tested with the grip's 1-DOF
-//! chi-square gate (`GripParams::forward_gate`), on the grip's noise even
-//! when a distrust factor inflates the noise they are fused with (the
-//! adverse-event memory's weight, the scale pipeline's verdict: distrust
-//! lowers what a sample counts, it never lets a larger innovation pass,
-//! [`crate::wheel::update::update_gated_on`]); when either fails the wheels
+//! chi-square gate (`GripParams::forward_gate`); when either fails the wheels
 //! slipped and the sample is counted as [`Reject::Gated`]. The lateral and
 //! vertical non-holonomic rows are fused either way, and the forward row too
 //! when it passed and only the differential row failed (the body did not
@@ -39,7 +35,7 @@ use crate::recovery::{Verdict, WheelWatch};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::wheel::model::{DIFFERENTIAL, wheel_rows};
 use crate::wheel::skid::{SkidConfig, TrackEstimate, TrackScale};
-use crate::wheel::update::{WheelUpdate, update_gated_on};
+use crate::wheel::update::{WheelUpdate, update};
 
 /// The forward wheel-velocity innovation of one wheel sample: the short
 /// answer of [`crate::EgoEkf::fuse_wheel`]; the sample's full record is its
@@ -190,7 +186,6 @@ impl WheelFusion {
         noise_factor: f32,
     ) -> Result<WheelInnovation, Reject> {
         // A factor the grip refuses (not finite, not positive) leaves the grip's noise.
-        let inflated_from = *grip;
         let inflated = GripParams::new(
             grip.grip(),
             grip.forward_std() * noise_factor,
@@ -204,14 +199,7 @@ impl WheelFusion {
         })
         .unwrap_or(*grip);
         let grip = &inflated;
-        // Gated as the uninflated rows would be (see `update_gated_on`).
-        let ratio = grip.forward_std() / inflated_from.forward_std();
-        let gate_noise = if ratio.is_finite() && ratio > 1.0 {
-            1.0 / (ratio * ratio)
-        } else {
-            1.0
-        };
-        let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted, gate_noise);
+        let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
             Ok(inn) if !inn.forward_fused => self.watch.gated(recovery, rates.t(), inn.forward),
@@ -254,7 +242,6 @@ impl WheelFusion {
         grip: &GripParams,
         now: Timestamp,
         refuted: bool,
-        gate_noise: f32,
     ) -> Result<(WheelInnovation, GatedRows), Reject> {
         match rates.t().nanos_since(now) {
             Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
@@ -302,7 +289,7 @@ impl WheelFusion {
         // Refuted by the flow ([`crate::recovery::Refutation`]): the
         // forward and differential rows are gated whatever their test says.
         let gate = if refuted { 0.0 } else { grip.forward_gate() };
-        let u = update_gated_on(x, p, &rows, gate, gate_noise)?;
+        let u = update(x, p, &rows, gate)?;
         let inn = WheelInnovation {
             forward: u.forward,
             forward_var: u.forward_var,
