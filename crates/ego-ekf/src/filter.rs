@@ -465,7 +465,7 @@ impl EgoEkf {
         sample.check_range(self.config.imu.gyro_max, self.config.imu.accel_max)?;
         let previous = self.imu_clock.last();
         // A time stamp the clock refuses is refused for that reason, not judged.
-        let in_order = previous.is_none_or(|p| sample.t().nanos_since(p).is_some_and(|d| d > 0));
+        let in_order = self.imu_clock.follows(sample.t());
         if in_order && let Some(cfg) = &self.config.imu.plausibility {
             self.plausibility.check(cfg, sample)?;
         }

@@ -90,6 +90,14 @@ impl SampleClock {
         self.last = None;
     }
 
+    /// Whether `t` is later than the last accepted sample (or there is none):
+    /// the time stamps [`SampleClock::accept`] does not refuse as
+    /// [`Reject::OutOfOrder`] or [`Reject::Duplicate`]. Changes nothing.
+    pub fn follows(&self, t: Timestamp) -> bool {
+        self.last
+            .is_none_or(|last| t.nanos_since(last).is_some_and(|d| d > 0))
+    }
+
     /// Checks `t` against the previous sample; see the type's documentation.
     pub fn accept(&mut self, t: Timestamp) -> Result<Option<f32>, Reject> {
         let Some(last) = self.last else {
@@ -127,7 +135,10 @@ mod tests {
     #[test]
     fn clock_rejects_with_reasons_and_recovers_after_gap() {
         let mut c = SampleClock::new(100_000_000);
+        assert!(c.follows(Timestamp(1_000)));
         assert_eq!(c.accept(Timestamp(1_000)), Ok(None));
+        assert!(!c.follows(Timestamp(1_000)) && !c.follows(Timestamp(999)));
+        assert!(c.follows(Timestamp(1_001)));
         assert_eq!(c.accept(Timestamp(1_000)), Err(Reject::Duplicate));
         assert_eq!(c.accept(Timestamp(999)), Err(Reject::OutOfOrder));
         assert_eq!(c.last(), Some(Timestamp(1_000)));
