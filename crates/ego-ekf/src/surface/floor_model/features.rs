@@ -102,7 +102,7 @@ fn features_from(sums: &[WindowSums; WINDOWS.len()], cy: usize, height: usize) -
         let norm = 1.0 / (m + 16.0);
         let out = [
             per(s.sum_dx2, s.n_dx2) * norm,
-            libm::sqrtf(var) * norm,
+            vslam_core::fsqrt::sqrtf(var) * norm,
             per(s.sum_dx, s.n_dx) * norm,
             per(s.sum_dy, s.n_dy) * norm,
         ];
@@ -121,159 +121,192 @@ fn features_from(sums: &[WindowSums; WINDOWS.len()], cy: usize, height: usize) -
     f
 }
 
-/// Widest image whose cell rows [`RowFeatures`] computes from running sums
-/// (its buffers are sized for it); wider images take [`cell_features`].
+/// Widest image whose cells [`RowFeatures`] computes from running sums (its
+/// tables are sized for it); wider images take [`cell_features`].
 pub const MAX_ROW_WIDTH: usize = 160;
 
-/// Per column, sums over one window's rows, as prefix sums along the row:
-/// entry `x` holds the sum over the columns before `x`. Quantities: the
-/// pixel, its square, `|p(x) - p(x - 1)|` (columns `x >= 1`),
-/// `|p(x) - p(x - 2)|` (columns `x >= 2`) and `|p(x, y) - p(x, y + 1)|`
-/// over the window's rows but its last.
-struct ColumnPrefix([[u32; MAX_ROW_WIDTH + 1]; 5]);
-
-/// Indices into [`ColumnPrefix`].
+/// Quantities summed per column, indices into [`WindowTable`]: the pixel,
+/// its square, `|p(x) - p(x - 1)|` (columns `x >= 1`), `|p(x) - p(x - 2)|`
+/// (columns `x >= 2`) and `|p(x, y) - p(x, y + 1)|`.
 const SUM: usize = 0;
 const SUM_SQ: usize = 1;
 const DX: usize = 2;
 const DX2: usize = 3;
 const DY: usize = 4;
+const QUANTITIES: usize = 5;
 
-impl ColumnPrefix {
-    /// The column sums over rows `y0..y1` of `image` (at most
-    /// [`MAX_ROW_WIDTH`] wide), as prefix sums.
-    fn fill(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
+/// One window's column sums over the rows the window covers now, kept as
+/// prefix sums along the row: entry `x` of a quantity holds its sum over
+/// the columns before `x`. `rows` are the image rows summed for the first
+/// four quantities; [`DY`] sums the pairs `(y, y + 1)` with `y` in `pairs`
+/// (the window's rows but its last).
+struct WindowTable {
+    prefix: [[u32; MAX_ROW_WIDTH + 1]; QUANTITIES],
+    rows: (usize, usize),
+    pairs: (usize, usize),
+}
+
+impl WindowTable {
+    const EMPTY: WindowTable = WindowTable {
+        prefix: [[0; MAX_ROW_WIDTH + 1]; QUANTITIES],
+        rows: (0, 0),
+        pairs: (0, 0),
+    };
+
+    /// Slides the window down to rows `y0..y1` of `image` (both ends never
+    /// move up from one map row to the next): rows and pairs that enter are
+    /// added, those that leave are taken out, each once.
+    fn slide(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
         let w = image.width().min(MAX_ROW_WIDTH);
-        for table in self.0.iter_mut() {
-            table.fill(0);
+        while self.rows.1 < y1 {
+            self.apply_row(image.row(self.rows.1), w, u32::wrapping_add);
+            self.rows.1 += 1;
         }
-        let [sum, sum_sq, dx, dx2, dy] = &mut self.0;
-        for y in y0..y1 {
-            let Some(row) = image.row(y).and_then(|r| r.get(..w)) else {
-                continue;
-            };
-            let below = if y + 1 < y1 {
-                image.row(y + 1).and_then(|r| r.get(..w))
-            } else {
-                None
-            };
-            // Column x's sums go to entry x + 1, turned into prefix sums below.
-            for (x, &p) in row.iter().enumerate() {
-                let p = u32::from(p);
-                let i = x + 1;
-                if let Some(v) = sum.get_mut(i) {
-                    *v += p;
-                }
-                if let Some(v) = sum_sq.get_mut(i) {
-                    *v += p * p;
-                }
-                if let (Some(&q), Some(v)) =
-                    (x.checked_sub(1).and_then(|j| row.get(j)), dx.get_mut(i))
-                {
-                    *v += p.abs_diff(u32::from(q));
-                }
-                if let (Some(&q), Some(v)) =
-                    (x.checked_sub(2).and_then(|j| row.get(j)), dx2.get_mut(i))
-                {
-                    *v += p.abs_diff(u32::from(q));
-                }
-                if let (Some(&b), Some(v)) = (below.and_then(|b| b.get(x)), dy.get_mut(i)) {
-                    *v += p.abs_diff(u32::from(b));
-                }
-            }
+        while self.rows.0 < y0 {
+            self.apply_row(image.row(self.rows.0), w, u32::wrapping_sub);
+            self.rows.0 += 1;
         }
-        for table in self.0.iter_mut() {
-            let mut run = 0u32;
-            for v in table.iter_mut().take(w + 1) {
-                run += *v;
-                *v = run;
+        let p1 = y1.saturating_sub(1).max(y0);
+        while self.pairs.1 < p1 {
+            let y = self.pairs.1;
+            self.apply_pair(image.row(y), image.row(y + 1), w, u32::wrapping_add);
+            self.pairs.1 += 1;
+        }
+        while self.pairs.0 < y0.min(self.pairs.1) {
+            let y = self.pairs.0;
+            self.apply_pair(image.row(y), image.row(y + 1), w, u32::wrapping_sub);
+            self.pairs.0 += 1;
+        }
+    }
+
+    /// Adds (or with `op` a subtraction, takes out) one row's pixel,
+    /// square and horizontal differences.
+    fn apply_row(&mut self, row: Option<&[u8]>, w: usize, op: fn(u32, u32) -> u32) {
+        let Some(row) = row.and_then(|r| r.get(..w)) else {
+            return;
+        };
+        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
+        let mut run = [0u32; 4];
+        let (mut prev, mut prev2) = (0u32, 0u32);
+        // Entry x + 1 gains the running sum over columns 0..=x.
+        let tables = sum
+            .iter_mut()
+            .skip(1)
+            .zip(sum_sq.iter_mut().skip(1))
+            .zip(dx.iter_mut().skip(1))
+            .zip(dx2.iter_mut().skip(1));
+        for (x, ((((s, q), d), d2), &p)) in tables.zip(row).enumerate() {
+            let p = u32::from(p);
+            run[0] += p;
+            run[1] += p * p;
+            if x >= 1 {
+                run[2] += p.abs_diff(prev);
             }
+            if x >= 2 {
+                run[3] += p.abs_diff(prev2);
+            }
+            prev2 = prev;
+            prev = p;
+            *s = op(*s, run[0]);
+            *q = op(*q, run[1]);
+            *d = op(*d, run[2]);
+            *d2 = op(*d2, run[3]);
+        }
+    }
+
+    /// Adds (or takes out) the vertical differences of rows `y` and `y + 1`.
+    fn apply_pair(
+        &mut self,
+        row: Option<&[u8]>,
+        below: Option<&[u8]>,
+        w: usize,
+        op: fn(u32, u32) -> u32,
+    ) {
+        let (Some(row), Some(below)) =
+            (row.and_then(|r| r.get(..w)), below.and_then(|r| r.get(..w)))
+        else {
+            return;
+        };
+        let mut run = 0u32;
+        for ((d, &p), &b) in self.prefix[DY].iter_mut().skip(1).zip(row).zip(below) {
+            run += u32::from(p.abs_diff(b));
+            *d = op(*d, run);
         }
     }
 
     /// Sum of quantity `q` over columns `a..b` (0 when empty).
     fn span(&self, q: usize, a: usize, b: usize) -> u32 {
-        let table = self.0.get(q);
+        let table = self.prefix.get(q);
         match (table.and_then(|t| t.get(a)), table.and_then(|t| t.get(b))) {
-            (Some(&lo), Some(&hi)) if b > a => hi - lo,
+            (Some(&lo), Some(&hi)) if b > a => hi.wrapping_sub(lo),
             _ => 0,
         }
     }
+
+    /// The sums over the window's rows and columns `x0..x1`.
+    fn sums(&self, x0: usize, x1: usize) -> WindowSums {
+        let rows = self.rows.1.saturating_sub(self.rows.0) as u32;
+        let len = x1.saturating_sub(x0) as u32;
+        WindowSums {
+            n: len * rows,
+            sum: self.span(SUM, x0, x1),
+            sum_sq: self.span(SUM_SQ, x0, x1),
+            n_dx: len.saturating_sub(1) * rows,
+            sum_dx: self.span(DX, x0 + 1, x1),
+            n_dy: len * rows.saturating_sub(1),
+            sum_dy: self.span(DY, x0, x1),
+            n_dx2: len.saturating_sub(2) * rows,
+            sum_dx2: self.span(DX2, x0 + 2, x1),
+        }
+    }
 }
 
-/// The features of every cell of one map row from running sums: per window,
-/// the column sums over the window's rows once per map row, then each cell's
-/// window from their prefix sums in constant time. The same integer sums as
-/// [`cell_features`], so the same features bit for bit, at a fraction of the
-/// cost (Cortex-M4: `segment.floor_model` in `firmware/README.md`). Fixed
-/// memory, about 12 KB: the prefix sums and the window sums of one row of
-/// cells of an image at most [`MAX_ROW_WIDTH`] wide.
+/// The features of every cell of an image from running sums: per window a
+/// table of column sums over the window's rows, kept as prefix sums along
+/// the row and slid down the image (each image row enters and leaves each
+/// window once), so each cell's window sums come from two entries per
+/// quantity. The same integer sums as [`cell_features`], so the same
+/// features bit for bit, at a fraction of the cost (Cortex-M4:
+/// `segment.floor_model` in `firmware/README.md`). Fixed memory, about
+/// 9.7 KB: three tables for an image at most [`MAX_ROW_WIDTH`] wide.
 pub struct RowFeatures {
-    prefix: ColumnPrefix,
-    sums: [[WindowSums; WINDOWS.len()]; MAX_ROW_WIDTH / CELL],
+    tables: [WindowTable; WINDOWS.len()],
 }
 
 impl RowFeatures {
-    /// Empty buffers.
+    /// Empty tables.
     pub const fn new() -> Self {
-        const EMPTY: WindowSums = WindowSums {
-            n: 0,
-            sum: 0,
-            sum_sq: 0,
-            n_dx: 0,
-            sum_dx: 0,
-            n_dy: 0,
-            sum_dy: 0,
-            n_dx2: 0,
-            sum_dx2: 0,
-        };
         RowFeatures {
-            prefix: ColumnPrefix([[0; MAX_ROW_WIDTH + 1]; 5]),
-            sums: [[EMPTY; WINDOWS.len()]; MAX_ROW_WIDTH / CELL],
+            tables: [WindowTable::EMPTY; WINDOWS.len()],
         }
     }
 
-    /// Calls `f(cx, features)` for every cell of map row `cy` of `image`
-    /// (`image.width() / CELL` of them), in order; `false` (and no call)
-    /// when the image is wider than [`MAX_ROW_WIDTH`].
-    pub fn row(
+    /// Calls `f(cx, cy, features)` for every cell of `image`
+    /// (`image.width() / CELL` by `image.height() / CELL` of them), row by
+    /// row; `false` (and no call) when the image is wider than
+    /// [`MAX_ROW_WIDTH`].
+    pub fn each_cell(
         &mut self,
         image: &ImageView<'_>,
-        cy: usize,
-        mut f: impl FnMut(usize, [f32; FEATURES]),
+        mut f: impl FnMut(usize, usize, [f32; FEATURES]),
     ) -> bool {
         let (w, h) = (image.width(), image.height());
         if w > MAX_ROW_WIDTH {
             return false;
         }
-        let cells = w / CELL;
-        let py = cy * CELL + CELL / 2;
-        for (k, &half) in WINDOWS.iter().enumerate() {
-            let (y0, y1) = (py.saturating_sub(half), (py + half).min(h));
-            let rows = y1.saturating_sub(y0) as u32;
-            self.prefix.fill(image, y0, y1);
-            let t = &self.prefix;
-            for (cx, cell) in self.sums.iter_mut().take(cells).enumerate() {
-                let px = cx * CELL + CELL / 2;
-                let (x0, x1) = (px.saturating_sub(half), (px + half).min(w));
-                let len = x1.saturating_sub(x0) as u32;
-                if let Some(s) = cell.get_mut(k) {
-                    *s = WindowSums {
-                        n: len * rows,
-                        sum: t.span(SUM, x0, x1),
-                        sum_sq: t.span(SUM_SQ, x0, x1),
-                        n_dx: len.saturating_sub(1) * rows,
-                        sum_dx: t.span(DX, x0 + 1, x1),
-                        n_dy: len * rows.saturating_sub(1),
-                        sum_dy: t.span(DY, x0, x1),
-                        n_dx2: len.saturating_sub(2) * rows,
-                        sum_dx2: t.span(DX2, x0 + 2, x1),
-                    };
-                }
+        *self = RowFeatures::new();
+        for cy in 0..h / CELL {
+            let py = cy * CELL + CELL / 2;
+            for (table, &half) in self.tables.iter_mut().zip(&WINDOWS) {
+                table.slide(image, py.saturating_sub(half), (py + half).min(h));
             }
-        }
-        for (cx, s) in self.sums.iter().take(cells).enumerate() {
-            f(cx, features_from(s, cy, h));
+            for cx in 0..w / CELL {
+                let px = cx * CELL + CELL / 2;
+                let [a, b, c] = &self.tables;
+                let sums = [(a, WINDOWS[0]), (b, WINDOWS[1]), (c, WINDOWS[2])]
+                    .map(|(t, half)| t.sums(px.saturating_sub(half), (px + half).min(w)));
+                f(cx, cy, features_from(&sums, cy, h));
+            }
         }
         true
     }
@@ -323,19 +356,18 @@ mod tests {
             let px = image(w, h, seed);
             let view = ImageView::new(&px[..w * h], w, h, w).unwrap();
             let mut rows = RowFeatures::new();
-            for cy in 0..h / CELL {
-                let mut seen = 0;
-                assert!(rows.row(&view, cy, |cx, f| {
-                    let direct = cell_features(&view, cx, cy);
-                    assert_eq!(
-                        f.map(f32::to_bits),
-                        direct.map(f32::to_bits),
-                        "{w}x{h} cell ({cx}, {cy})"
-                    );
-                    seen += 1;
-                }));
-                assert_eq!(seen, w / CELL);
-            }
+            let mut seen = 0;
+            assert!(rows.each_cell(&view, |cx, cy, f| {
+                assert_eq!((cx, cy), (seen % (w / CELL), seen / (w / CELL)));
+                let direct = cell_features(&view, cx, cy);
+                assert_eq!(
+                    f.map(f32::to_bits),
+                    direct.map(f32::to_bits),
+                    "{w}x{h} cell ({cx}, {cy})"
+                );
+                seen += 1;
+            }));
+            assert_eq!(seen, (w / CELL) * (h / CELL));
         }
     }
 
@@ -345,7 +377,7 @@ mod tests {
         let px = [0u8; (MAX_ROW_WIDTH + 2) * 4];
         let view = ImageView::new(&px, w, 4, w).unwrap();
         let mut calls = 0;
-        assert!(!RowFeatures::new().row(&view, 0, |_, _| calls += 1));
+        assert!(!RowFeatures::new().each_cell(&view, |_, _, _| calls += 1));
         assert_eq!(calls, 0);
     }
 }

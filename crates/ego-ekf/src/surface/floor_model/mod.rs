@@ -77,7 +77,9 @@ impl MlpWeights {
         let mut hidden = [0.0f32; HIDDEN];
         for ((hv, row), b) in hidden.iter_mut().zip(&self.w1).zip(&self.b1) {
             let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
-            *hv = a.max(0.0);
+            // ReLU as a compare: `f32::max` is a call to the software
+            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`.
+            *hv = if a > 0.0 { a } else { 0.0 };
         }
         let mut out = [0.0f32; CLASSES];
         for ((o, row), b) in out.iter_mut().zip(&self.w2).zip(&self.b2) {
@@ -162,17 +164,17 @@ impl Segmenter for FloorModel {
         let (w, h) = self.map_size(image.width(), image.height())?;
         let n = w.checked_mul(h).ok_or(SegmentError::UnsupportedSize)?;
         let map = out.get_mut(..n).ok_or(SegmentError::OutputTooSmall)?;
-        // Row by row from running sums; cell by cell when the image is
-        // wider than the row buffers (the same features either way).
+        // From running sums; cell by cell when the image is wider than the
+        // tables (the same features either way).
         let mut rows = RowFeatures::new();
         let weights = &self.weights;
-        for (cy, labels) in map.chunks_exact_mut(w).enumerate() {
-            let done = rows.row(image, cy, |cx, f| {
-                if let Some(slot) = labels.get_mut(cx) {
-                    *slot = weights.classify(&f);
-                }
-            });
-            if !done {
+        let done = rows.each_cell(image, |cx, cy, f| {
+            if let Some(slot) = map.get_mut(cy * w + cx) {
+                *slot = weights.classify(&f);
+            }
+        });
+        if !done {
+            for (cy, labels) in map.chunks_exact_mut(w).enumerate() {
                 for (cx, slot) in labels.iter_mut().enumerate() {
                     *slot = weights.classify(&cell_features(image, cx, cy));
                 }
