@@ -135,6 +135,17 @@ const DX2: usize = 3;
 const DY: usize = 4;
 const QUANTITIES: usize = 5;
 
+/// `a + b` (`ADD`) or `a - b`, wrapping: a row taken out was added before,
+/// so no sum ever wraps.
+#[inline(always)]
+fn apply<const ADD: bool>(a: u32, b: u32) -> u32 {
+    if ADD {
+        a.wrapping_add(b)
+    } else {
+        a.wrapping_sub(b)
+    }
+}
+
 /// One window's column sums over the rows the window covers now, kept as
 /// prefix sums along the row: entry `x` of a quantity holds its sum over
 /// the columns before `x`. `rows` are the image rows summed for the first
@@ -159,29 +170,29 @@ impl WindowTable {
     fn slide(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
         let w = image.width().min(MAX_ROW_WIDTH);
         while self.rows.1 < y1 {
-            self.apply_row(image.row(self.rows.1), w, u32::wrapping_add);
+            self.apply_row::<true>(image.row(self.rows.1), w);
             self.rows.1 += 1;
         }
         while self.rows.0 < y0 {
-            self.apply_row(image.row(self.rows.0), w, u32::wrapping_sub);
+            self.apply_row::<false>(image.row(self.rows.0), w);
             self.rows.0 += 1;
         }
         let p1 = y1.saturating_sub(1).max(y0);
         while self.pairs.1 < p1 {
             let y = self.pairs.1;
-            self.apply_pair(image.row(y), image.row(y + 1), w, u32::wrapping_add);
+            self.apply_pair::<true>(image.row(y), image.row(y + 1), w);
             self.pairs.1 += 1;
         }
         while self.pairs.0 < y0.min(self.pairs.1) {
             let y = self.pairs.0;
-            self.apply_pair(image.row(y), image.row(y + 1), w, u32::wrapping_sub);
+            self.apply_pair::<false>(image.row(y), image.row(y + 1), w);
             self.pairs.0 += 1;
         }
     }
 
-    /// Adds (or with `op` a subtraction, takes out) one row's pixel,
-    /// square and horizontal differences.
-    fn apply_row(&mut self, row: Option<&[u8]>, w: usize, op: fn(u32, u32) -> u32) {
+    /// Adds (`ADD`) or takes out one row's pixel, square and horizontal
+    /// differences.
+    fn apply_row<const ADD: bool>(&mut self, row: Option<&[u8]>, w: usize) {
         let Some(row) = row.and_then(|r| r.get(..w)) else {
             return;
         };
@@ -207,21 +218,16 @@ impl WindowTable {
             }
             prev2 = prev;
             prev = p;
-            *s = op(*s, run[0]);
-            *q = op(*q, run[1]);
-            *d = op(*d, run[2]);
-            *d2 = op(*d2, run[3]);
+            *s = apply::<ADD>(*s, run[0]);
+            *q = apply::<ADD>(*q, run[1]);
+            *d = apply::<ADD>(*d, run[2]);
+            *d2 = apply::<ADD>(*d2, run[3]);
         }
     }
 
-    /// Adds (or takes out) the vertical differences of rows `y` and `y + 1`.
-    fn apply_pair(
-        &mut self,
-        row: Option<&[u8]>,
-        below: Option<&[u8]>,
-        w: usize,
-        op: fn(u32, u32) -> u32,
-    ) {
+    /// Adds (`ADD`) or takes out the vertical differences of rows `y` and
+    /// `y + 1`.
+    fn apply_pair<const ADD: bool>(&mut self, row: Option<&[u8]>, below: Option<&[u8]>, w: usize) {
         let (Some(row), Some(below)) =
             (row.and_then(|r| r.get(..w)), below.and_then(|r| r.get(..w)))
         else {
@@ -230,7 +236,7 @@ impl WindowTable {
         let mut run = 0u32;
         for ((d, &p), &b) in self.prefix[DY].iter_mut().skip(1).zip(row).zip(below) {
             run += u32::from(p.abs_diff(b));
-            *d = op(*d, run);
+            *d = apply::<ADD>(*d, run);
         }
     }
 
