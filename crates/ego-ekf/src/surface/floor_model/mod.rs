@@ -68,22 +68,30 @@ impl MlpWeights {
         b2: weights::B2,
     };
 
-    /// Class scores (logits) for one feature vector.
+    /// Class scores (logits) for one feature vector. Each class sums its
+    /// hidden units' contributions in unit order, then adds its bias; a unit
+    /// the ReLU holds at zero adds nothing and is skipped (a score that
+    /// would be a sum of zeros may come out `-0.0` instead of `+0.0`).
     pub fn scores(&self, f: &[f32; FEATURES]) -> [f32; CLASSES] {
         let mut x = [0.0f32; FEATURES];
         for ((xi, fi), (m, s)) in x.iter_mut().zip(f).zip(self.mean.iter().zip(&self.scale)) {
             *xi = (fi - m) * s;
         }
-        let mut hidden = [0.0f32; HIDDEN];
-        for ((hv, row), b) in hidden.iter_mut().zip(&self.w1).zip(&self.b1) {
+        let mut out = [-0.0f32; CLASSES];
+        for (j, (row, b)) in self.w1.iter().zip(&self.b1).enumerate() {
             let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
-            // ReLU as a compare: `f32::max` is a call to the software
-            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`.
-            *hv = if a > 0.0 { a } else { 0.0 };
+            // ReLU as a compare (`f32::max` is a call to the software
+            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
+            if a > 0.0 {
+                for (o, w2) in out.iter_mut().zip(&self.w2) {
+                    if let Some(w) = w2.get(j) {
+                        *o += w * a;
+                    }
+                }
+            }
         }
-        let mut out = [0.0f32; CLASSES];
-        for ((o, row), b) in out.iter_mut().zip(&self.w2).zip(&self.b2) {
-            *o = row.iter().zip(&hidden).map(|(w, v)| w * v).sum::<f32>() + b;
+        for (o, b) in out.iter_mut().zip(&self.b2) {
+            *o += b;
         }
         out
     }
@@ -211,6 +219,57 @@ mod tests {
         }));
         // Cells past the map are left alone.
         assert_eq!(out[24..], [255u8; 6]);
+    }
+
+    /// The scores as two dense layers: every hidden unit, ReLU'd, then
+    /// each class's dot product plus its bias.
+    fn dense_scores(m: &MlpWeights, f: &[f32; FEATURES]) -> [f32; CLASSES] {
+        let x: [f32; FEATURES] = core::array::from_fn(|i| (f[i] - m.mean[i]) * m.scale[i]);
+        let hidden: [f32; HIDDEN] = core::array::from_fn(|j| {
+            let a = m.w1[j].iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + m.b1[j];
+            a.max(0.0)
+        });
+        core::array::from_fn(|k| {
+            m.w2[k].iter().zip(&hidden).map(|(w, v)| w * v).sum::<f32>() + m.b2[k]
+        })
+    }
+
+    #[test]
+    fn scores_skipping_idle_units_equal_the_dense_layers() {
+        // Features drawn around the training statistics (xorshift), so some
+        // hidden units are idle and others not: the same scores up to the
+        // sign of a zero, and so the same class, on every draw.
+        let m = MlpWeights::REFERENCE;
+        let mut s = 0x2545_f491u32;
+        let mut uniform = || {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            (s >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut idle = 0;
+        for _ in 0..5_000 {
+            let f: [f32; FEATURES] =
+                core::array::from_fn(|i| m.mean[i] + 3.0 * uniform() / m.scale[i]);
+            let dense = dense_scores(&m, &f);
+            let sparse = m.scores(&f);
+            for (a, b) in dense.iter().zip(&sparse) {
+                assert!(
+                    a.to_bits() == b.to_bits() || (*a == 0.0 && *b == 0.0),
+                    "{a} {b}"
+                );
+            }
+            let best = (0..CLASSES).fold(0, |k, j| if dense[j] > dense[k] { j } else { k });
+            assert_eq!(usize::from(m.classify(&f)), best);
+            let x0: [f32; FEATURES] = core::array::from_fn(|i| (f[i] - m.mean[i]) * m.scale[i]);
+            idle += m
+                .w1
+                .iter()
+                .zip(&m.b1)
+                .filter(|(r, b)| r.iter().zip(&x0).map(|(w, v)| w * v).sum::<f32>() + **b <= 0.0)
+                .count();
+        }
+        assert!(idle > 5_000 && idle < 5_000 * (HIDDEN - 1), "{idle}");
     }
 
     #[test]
