@@ -366,9 +366,13 @@ fn column_sums(rows: &[&[u8]; 5], w: usize, first: isize, out: &mut [u16]) {
         binomial5(p(r0), p(r1), p(r2), p(r3), p(r4))
     };
     let inside = hi - lo;
-    let outside = out.iter_mut().enumerate();
-    for (j, o) in outside.filter(|&(j, _)| j < skip || j >= skip + inside) {
+    let (before, rest) = out.split_at_mut(skip.min(out.len()));
+    let after = rest.get_mut(inside..).unwrap_or(&mut []);
+    for (j, o) in before.iter_mut().enumerate() {
         *o = column(reflect(first + j as isize, w));
+    }
+    for (j, o) in after.iter_mut().enumerate() {
+        *o = column(reflect(first + (skip + inside + j) as isize, w));
     }
 }
 

@@ -166,9 +166,22 @@ impl WindowTable {
 
     /// Slides the window down to rows `y0..y1` of `image` (both ends never
     /// move up from one map row to the next): rows and pairs that enter are
-    /// added, those that leave are taken out, each once.
+    /// added, those that leave are taken out, each once. Away from the top
+    /// and bottom borders a map row moves both ends by two rows, and the two
+    /// rows in and the two out go in one pass over the table.
     fn slide(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
         let w = image.width().min(MAX_ROW_WIDTH);
+        let (r0, r1) = self.rows;
+        let rows = |ys: [usize; 2]| -> Option<[&[u8]; 2]> {
+            let [a, b] = ys.map(|y| image.row(y).and_then(|r| r.get(..w)));
+            Some([a?, b?])
+        };
+        if (y0, y1) == (r0 + 2, r1 + 2)
+            && let (Some(enter), Some(leave)) = (rows([r1, r1 + 1]), rows([r0, r0 + 1]))
+        {
+            self.shift_rows(enter, leave);
+            self.rows = (y0, y1);
+        }
         while self.rows.1 < y1 {
             self.apply_row::<true>(image.row(self.rows.1), w);
             self.rows.1 += 1;
@@ -178,6 +191,17 @@ impl WindowTable {
             self.rows.0 += 1;
         }
         let p1 = y1.saturating_sub(1).max(y0);
+        let (q0, q1) = self.pairs;
+        let three = |y: usize| -> Option<[&[u8]; 3]> {
+            let [a, b, c] = [y, y + 1, y + 2].map(|y| image.row(y).and_then(|r| r.get(..w)));
+            Some([a?, b?, c?])
+        };
+        if (y0, p1) == (q0 + 2, q1 + 2)
+            && let (Some(enter), Some(leave)) = (three(q1), three(q0))
+        {
+            self.shift_pairs(enter, leave);
+            self.pairs = (y0, p1);
+        }
         while self.pairs.1 < p1 {
             let y = self.pairs.1;
             self.apply_pair::<true>(image.row(y), image.row(y + 1), w);
@@ -187,6 +211,74 @@ impl WindowTable {
             let y = self.pairs.0;
             self.apply_pair::<false>(image.row(y), image.row(y + 1), w);
             self.pairs.0 += 1;
+        }
+    }
+
+    /// Adds rows `enter` and takes out rows `leave` (pixel, square and
+    /// horizontal differences) in one pass: the same table as two
+    /// [`WindowTable::apply_row`] calls of each kind.
+    fn shift_rows(&mut self, enter: [&[u8]; 2], leave: [&[u8]; 2]) {
+        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
+        let tables = sum
+            .iter_mut()
+            .skip(1)
+            .zip(sum_sq.iter_mut().skip(1))
+            .zip(dx.iter_mut().skip(1))
+            .zip(dx2.iter_mut().skip(1));
+        let [a, b] = enter;
+        let [c, d] = leave;
+        let pixels = a.iter().zip(b).zip(c.iter().zip(d));
+        let mut run = [0u32; 4];
+        let (mut prev, mut prev2) = ([0u32; 4], [0u32; 4]);
+        for (x, ((((s, q), g), g2), ((&pa, &pb), (&pc, &pd)))) in tables.zip(pixels).enumerate() {
+            let p = [pa, pb, pc, pd].map(u32::from);
+            // In minus out, modulo 2^32: the running sums and the table
+            // entries they update stay the true (non-negative) sums.
+            let net = |v: [u32; 4]| {
+                v[0].wrapping_add(v[1])
+                    .wrapping_sub(v[2])
+                    .wrapping_sub(v[3])
+            };
+            run[0] = run[0].wrapping_add(net(p));
+            run[1] = run[1].wrapping_add(net(p.map(|v| v * v)));
+            let diff = |q: [u32; 4]| {
+                let ([a, b, c, d], [qa, qb, qc, qd]) = (p, q);
+                [
+                    a.abs_diff(qa),
+                    b.abs_diff(qb),
+                    c.abs_diff(qc),
+                    d.abs_diff(qd),
+                ]
+            };
+            if x >= 1 {
+                run[2] = run[2].wrapping_add(net(diff(prev)));
+            }
+            if x >= 2 {
+                run[3] = run[3].wrapping_add(net(diff(prev2)));
+            }
+            prev2 = prev;
+            prev = p;
+            *s = s.wrapping_add(run[0]);
+            *q = q.wrapping_add(run[1]);
+            *g = g.wrapping_add(run[2]);
+            *g2 = g2.wrapping_add(run[3]);
+        }
+    }
+
+    /// Adds the pairs `(y, y + 1)`, `(y + 1, y + 2)` of rows `enter`
+    /// (`y..y + 3`) and takes out those of rows `leave`, in one pass.
+    fn shift_pairs(&mut self, enter: [&[u8]; 3], leave: [&[u8]; 3]) {
+        let [a, b, c] = enter;
+        let [d, e, f] = leave;
+        let pixels = a.iter().zip(b).zip(c).zip(d.iter().zip(e).zip(f));
+        let mut run = 0u32;
+        for (g, (((&pa, &pb), &pc), ((&pd, &pe), &pf))) in
+            self.prefix[DY].iter_mut().skip(1).zip(pixels)
+        {
+            let entering = u32::from(pa.abs_diff(pb)) + u32::from(pb.abs_diff(pc));
+            let leaving = u32::from(pd.abs_diff(pe)) + u32::from(pe.abs_diff(pf));
+            run = run.wrapping_add(entering).wrapping_sub(leaving);
+            *g = g.wrapping_add(run);
         }
     }
 
