@@ -332,12 +332,14 @@ fn gradient_row<const C: usize>(
     let width = C * LANES;
     // Separable Scharr: smooth [3 10 3] down the columns and difference
     // across (gx), difference down the columns and smooth across (gy).
+    // Only the `width + 2` columns the window's taps read.
     let (mut smooth, mut diff) = ([0.0f32; ROW], [0.0f32; ROW]);
     for (((s, d), &a), (&b, &c)) in smooth
         .iter_mut()
         .zip(diff.iter_mut())
         .zip(p0)
         .zip(p1.iter().zip(p2))
+        .take(width + 2)
     {
         *s = 3.0 * (a + c) + 10.0 * b;
         *d = c - a;

@@ -16,7 +16,7 @@
 use heapless::Deque;
 
 use super::confidence::{FlowConfidenceParams, flow_sample_confidence};
-use super::interval::{Coverage, ended_by, overlap_fraction};
+use super::interval::{Coverage, ending_after, overlap_fraction};
 use super::transactions::{Chord, Distance, Transaction};
 use crate::geometry::{Extrinsics, Vec2, Vec3};
 use crate::kinematics::{add_lever_arm, sensor_plane_to_body};
@@ -232,8 +232,7 @@ impl<const N: usize> FlowStepWindow<N> {
         let mut samples = 0u16;
         let mut blank = 0u16;
         // Steps are in time order; those ended by `t0` add nothing.
-        let skip = ended_by(self.steps.iter(), t0, |st| st.t1);
-        for st in self.steps.iter().skip(skip) {
+        for st in ending_after(&self.steps, t0, |st| st.t1) {
             let f = overlap_fraction(st.t0, st.t1, t0, t1);
             if f <= 0.0 {
                 continue;

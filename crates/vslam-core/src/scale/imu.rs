@@ -11,7 +11,7 @@
 
 use heapless::Deque;
 
-use super::interval::{Coverage, ended_by, overlap_fraction};
+use super::interval::{Coverage, ending_after, overlap_fraction};
 use crate::geometry::Extrinsics;
 use crate::reject::{Reject, SampleCounts};
 use crate::sensors::ImuSample;
@@ -108,8 +108,7 @@ impl<const N: usize> ImuWindow<N> {
         let mut acc = 0.0f32;
         let mut w = 0.0f32;
         // Spans are in time order; those ended by `t0` add nothing.
-        let skip = ended_by(self.spans.iter(), t0, |s| s.t1);
-        for s in self.spans.iter().skip(skip) {
+        for s in ending_after(&self.spans, t0, |s| s.t1) {
             let f = overlap_fraction(s.t0, s.t1, t0, t1);
             if f <= 0.0 {
                 continue;

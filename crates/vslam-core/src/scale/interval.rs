@@ -3,6 +3,8 @@
 //! inside the query interval (linear interpolation in time, constant rate
 //! within a sample).
 
+use heapless::Deque;
+
 use crate::time::Timestamp;
 
 /// Nanoseconds of `[a0, a1]` that lie inside `[b0, b1]` (zero if disjoint).
@@ -12,18 +14,23 @@ pub fn overlap_nanos(a0: Timestamp, a1: Timestamp, b0: Timestamp, b1: Timestamp)
     hi.nanos_since(lo).unwrap_or(0)
 }
 
-/// How many of the oldest items of a window whose end times never decrease
-/// end at or before `t0`. Those lie wholly before a query that starts at
-/// `t0` ([`overlap_fraction`] is 0 for each), so a summary can skip them;
-/// counted from the newest end, so a query over recent time looks at the
+/// The items of a window whose end times never decrease that end after
+/// `t0`, oldest first. The others lie wholly before a query that starts at
+/// `t0` ([`overlap_fraction`] is 0 for each), so a summary can leave them
+/// out; found from the newest end, so a query over recent time looks at the
 /// recent items only.
-pub fn ended_by<'a, T: 'a>(
-    items: impl DoubleEndedIterator<Item = &'a T> + ExactSizeIterator,
+pub fn ending_after<T, const N: usize>(
+    window: &Deque<T, N>,
     t0: Timestamp,
     end: impl Fn(&T) -> Timestamp,
-) -> usize {
-    let n = items.len();
-    n - items.rev().take_while(|s| end(s) > t0).count()
+) -> impl Iterator<Item = &T> {
+    let recent = window.iter().rev().take_while(|s| end(s) > t0).count();
+    let (older, newer) = window.as_slices();
+    let skip = (older.len() + newer.len()).saturating_sub(recent);
+    let from_newer = skip.saturating_sub(older.len());
+    let older = older.get(skip.min(older.len())..).unwrap_or(&[]);
+    let newer = newer.get(from_newer..).unwrap_or(&[]);
+    older.iter().chain(newer)
 }
 
 /// The fraction of the sample `[s0, s1]` that lies inside `[q0, q1]`, `0..=1`.
@@ -97,15 +104,30 @@ mod tests {
     }
 
     #[test]
-    fn ended_by_counts_the_oldest_items_that_end_by_the_query_start() {
-        let ends = [10u64, 20, 30, 40];
-        let count = |t0| ended_by(ends.iter(), Timestamp(t0), |&e| Timestamp(e));
-        assert_eq!(count(5), 0);
-        assert_eq!(count(20), 2);
-        assert_eq!(count(25), 2);
-        assert_eq!(count(40), 4);
+    fn ending_after_gives_the_items_that_end_after_the_query_start() {
+        // A deque that has wrapped, so its items lie in two slices.
+        let mut d: Deque<u64, 4> = Deque::new();
+        for e in [0u64, 5, 10, 20, 30, 40] {
+            if d.is_full() {
+                d.pop_front();
+            }
+            let _ = d.push_back(e);
+        }
+        assert!(!d.as_slices().1.is_empty());
+        let after = |t0| {
+            let v: heapless::Vec<u64, 4> = ending_after(&d, Timestamp(t0), |&e| Timestamp(e))
+                .copied()
+                .collect();
+            v
+        };
+        assert_eq!(after(5)[..], [10, 20, 30, 40]);
+        assert_eq!(after(20)[..], [30, 40]);
+        assert_eq!(after(25)[..], [30, 40]);
+        assert_eq!(after(35)[..], [40]);
+        assert!(after(40).is_empty());
+        let empty: Deque<u64, 4> = Deque::new();
         assert_eq!(
-            ended_by([0u64; 0].iter(), Timestamp(7), |&e| Timestamp(e)),
+            ending_after(&empty, Timestamp(7), |&e| Timestamp(e)).count(),
             0
         );
     }

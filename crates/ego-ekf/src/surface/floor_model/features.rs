@@ -98,7 +98,10 @@ fn features_from(sums: &[WindowSums; WINDOWS.len()], cy: usize, height: usize) -
     let mut means = [0.0f32; WINDOWS.len()];
     for (k, s) in sums.iter().enumerate() {
         let m = per(s.sum, s.n);
-        let var = (per(s.sum_sq, s.n) - m * m).max(0.0);
+        // Clamped by a compare: `f32::max` calls the software `fmaxf` on
+        // a Cortex-M4 (the difference is never -0.0, so the bits agree).
+        let v = per(s.sum_sq, s.n) - m * m;
+        let var = if v > 0.0 { v } else { 0.0 };
         let norm = 1.0 / (m + 16.0);
         let out = [
             per(s.sum_dx2, s.n_dx2) * norm,
