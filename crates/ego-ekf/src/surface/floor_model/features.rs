@@ -217,17 +217,22 @@ impl WindowTable {
         }
     }
 
+    /// The entries `1..` of the four quantities a row adds (pixel, square,
+    /// first and second horizontal differences), column by column.
+    fn row_tables(&mut self) -> impl Iterator<Item = (((&mut u32, &mut u32), &mut u32), &mut u32)> {
+        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
+        sum.iter_mut()
+            .skip(1)
+            .zip(sum_sq.iter_mut().skip(1))
+            .zip(dx.iter_mut().skip(1))
+            .zip(dx2.iter_mut().skip(1))
+    }
+
     /// Adds rows `enter` and takes out rows `leave` (pixel, square and
     /// horizontal differences) in one pass: the same table as two
     /// [`WindowTable::apply_row`] calls of each kind.
     fn shift_rows(&mut self, enter: [&[u8]; 2], leave: [&[u8]; 2]) {
-        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
-        let tables = sum
-            .iter_mut()
-            .skip(1)
-            .zip(sum_sq.iter_mut().skip(1))
-            .zip(dx.iter_mut().skip(1))
-            .zip(dx2.iter_mut().skip(1));
+        let tables = self.row_tables();
         let [a, b] = enter;
         let [c, d] = leave;
         let pixels = a.iter().zip(b).zip(c.iter().zip(d));
@@ -291,16 +296,10 @@ impl WindowTable {
         let Some(row) = row.and_then(|r| r.get(..w)) else {
             return;
         };
-        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
         let mut run = [0u32; 4];
         let (mut prev, mut prev2) = (0u32, 0u32);
         // Entry x + 1 gains the running sum over columns 0..=x.
-        let tables = sum
-            .iter_mut()
-            .skip(1)
-            .zip(sum_sq.iter_mut().skip(1))
-            .zip(dx.iter_mut().skip(1))
-            .zip(dx2.iter_mut().skip(1));
+        let tables = self.row_tables();
         for (x, ((((s, q), d), d2), &p)) in tables.zip(row).enumerate() {
             let p = u32::from(p);
             run[0] += p;
