@@ -149,6 +149,20 @@ fn apply<const ADD: bool>(a: u32, b: u32) -> u32 {
     }
 }
 
+/// Rows `y..y + K` of `image`, each cut to its first `w` pixels; `None`
+/// when any of them is missing or shorter.
+fn rows_from<'a, const K: usize>(
+    image: &ImageView<'a>,
+    y: usize,
+    w: usize,
+) -> Option<[&'a [u8]; K]> {
+    let mut rows: [&[u8]; K] = [&[]; K];
+    for (i, row) in rows.iter_mut().enumerate() {
+        *row = image.row(y + i)?.get(..w)?;
+    }
+    Some(rows)
+}
+
 /// One window's column sums over the rows the window covers now, kept as
 /// prefix sums along the row: entry `x` of a quantity holds its sum over
 /// the columns before `x`. `rows` are the image rows summed for the first
@@ -175,12 +189,8 @@ impl WindowTable {
     fn slide(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
         let w = image.width().min(MAX_ROW_WIDTH);
         let (r0, r1) = self.rows;
-        let rows = |ys: [usize; 2]| -> Option<[&[u8]; 2]> {
-            let [a, b] = ys.map(|y| image.row(y).and_then(|r| r.get(..w)));
-            Some([a?, b?])
-        };
         if (y0, y1) == (r0 + 2, r1 + 2)
-            && let (Some(enter), Some(leave)) = (rows([r1, r1 + 1]), rows([r0, r0 + 1]))
+            && let (Some(enter), Some(leave)) = (rows_from(image, r1, w), rows_from(image, r0, w))
         {
             self.shift_rows(enter, leave);
             self.rows = (y0, y1);
@@ -195,12 +205,8 @@ impl WindowTable {
         }
         let p1 = y1.saturating_sub(1).max(y0);
         let (q0, q1) = self.pairs;
-        let three = |y: usize| -> Option<[&[u8]; 3]> {
-            let [a, b, c] = [y, y + 1, y + 2].map(|y| image.row(y).and_then(|r| r.get(..w)));
-            Some([a?, b?, c?])
-        };
         if (y0, p1) == (q0 + 2, q1 + 2)
-            && let (Some(enter), Some(leave)) = (three(q1), three(q0))
+            && let (Some(enter), Some(leave)) = (rows_from(image, q1, w), rows_from(image, q0, w))
         {
             self.shift_pairs(enter, leave);
             self.pairs = (y0, p1);
