@@ -386,11 +386,7 @@ pub fn global_match(a: &ImageView<'_>, b: &ImageView<'_>, prior: Vec2) -> ShiftM
                 let (xa, xb) = ((-dx).max(0) as usize, dx.max(0) as usize);
                 let n = ow as usize;
                 if let (Some(sa), Some(sb)) = (ra.get(xa..xa + n), rb.get(xb..xb + n)) {
-                    sad += sa
-                        .iter()
-                        .zip(sb)
-                        .map(|(p, q)| u32::from(p.abs_diff(*q)))
-                        .sum::<u32>();
+                    sad += crate::sad::sad(sa, sb);
                 }
             }
             let d = Vec2::new(dx as f32, dy as f32);

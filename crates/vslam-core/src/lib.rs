@@ -76,6 +76,7 @@ pub mod pose;
 pub mod pyramid;
 pub mod reject;
 pub mod robot;
+pub mod sad;
 pub mod scale;
 pub mod segment;
 pub mod sensors;
