@@ -74,6 +74,30 @@ pub const LOOP: [Task; 6] = [
     },
 ];
 
+/// A task the loop can run in place of one of [`LOOP`]'s: the same sensor
+/// through another path.
+#[derive(Clone, Copy, Debug)]
+pub struct Alternative {
+    /// The task.
+    pub task: Task,
+    /// Name of the [`LOOP`] task it takes the place of.
+    pub replaces: &'static str,
+}
+
+/// The alternatives: the flow sensor's raw frames tracked on the MCU
+/// (`FrameFlow`, one grab per flow report) instead of the chip's motion
+/// counts fused by the EKF. The scale pipeline's robust combination of a
+/// pair's features (`push_raw_flow`) is not in the image and so not in the
+/// row.
+pub const ALTERNATIVES: [Alternative; 1] = [Alternative {
+    task: Task {
+        name: "flow_frames_100hz",
+        rate_hz: 100,
+        steps: &[Step::FlowFrame],
+    },
+    replaces: "flow_100hz",
+}];
+
 /// One task's cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cost {
@@ -112,11 +136,29 @@ pub fn cost(task: &Task, median: impl Fn(Step) -> Option<u32>) -> Option<Cost> {
 
 /// The whole loop: the sum over the tasks that were measured.
 pub fn total(median: impl Fn(Step) -> Option<u32> + Copy) -> Cost {
+    sum(LOOP.iter(), median)
+}
+
+/// The whole loop with `alt` in place of the task it replaces; `None` when
+/// `alt` was not measured.
+pub fn total_with(alt: &Alternative, median: impl Fn(Step) -> Option<u32> + Copy) -> Option<Cost> {
+    cost(&alt.task, median)?;
+    let tasks = LOOP
+        .iter()
+        .filter(|t| t.name != alt.replaces)
+        .chain(core::iter::once(&alt.task));
+    Some(sum(tasks, median))
+}
+
+fn sum<'a>(
+    tasks: impl Iterator<Item = &'a Task>,
+    median: impl Fn(Step) -> Option<u32> + Copy,
+) -> Cost {
     let mut t = Cost {
         per_call: 0,
         per_second: 0,
     };
-    for task in &LOOP {
+    for task in tasks {
         if let Some(c) = cost(task, median) {
             t.per_call += c.per_call;
             t.per_second += c.per_second;

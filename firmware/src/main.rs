@@ -36,6 +36,9 @@ static SAMPLE: &[u8] = include_bytes!("../data/sample.bin");
 
 /// Camera frames for the front end, generated with the sample data.
 static FRAMES: &[u8] = include_bytes!("../data/frames160.bin");
+/// The flow sensor's raw 35x35 frames (`firmware/data/flowframes35.bin`,
+/// written with `frames160.bin`).
+static FLOW_FRAMES: &[u8] = include_bytes!("../data/flowframes35.bin");
 
 /// Front-end frame size whose working memory is reported.
 const FRAME: (usize, usize) = (160, 120);
@@ -138,6 +141,26 @@ fn budget_lines(out: &mut Out, medians: &[Option<u32>]) {
         t.per_second,
         t.percent_of(budget::M4_HZ)
     );
+    for alt in &budget::ALTERNATIVES {
+        if let (Some(c), Some(t)) = (
+            budget::cost(&alt.task, median),
+            budget::total_with(alt, median),
+        ) {
+            let _ = writeln!(
+                out,
+                "budget_alternative {} replaces {} rate_hz {} per_call {} per_second {} m4_168mhz_percent {:.2} m7_480mhz_percent {:.2} loop_instructions_per_second {} loop_m4_168mhz_percent {:.2}",
+                alt.task.name,
+                alt.replaces,
+                alt.task.rate_hz,
+                c.per_call,
+                c.per_second,
+                c.percent_of(budget::M4_HZ),
+                c.percent_of(budget::M7_HZ),
+                t.per_second,
+                t.percent_of(budget::M4_HZ)
+            );
+        }
+    }
 }
 
 fn sizes(out: &mut Out) {
@@ -309,6 +332,13 @@ fn run(mut core: cortex_m::Peripherals) -> ! {
             finish(&mut out, false)
         }
     };
+    let flow_frames = match replay::run_flow_frames(FLOW_FRAMES, &mut Metered) {
+        Ok(f) => f,
+        Err(e) => {
+            let _ = writeln!(out, "error {e}");
+            finish(&mut out, false)
+        }
+    };
     // SAFETY: nothing is measured from here on: the only reference made to
     // the meter while it lives.
     let meter = unsafe { &mut *core::ptr::addr_of_mut!(METER) };
@@ -348,6 +378,7 @@ fn run(mut core: cortex_m::Peripherals) -> ! {
     let _ = summary.write_counts(&mut out);
     let _ = frontend.write(&mut out);
     let _ = segment.write(&mut out);
+    let _ = flow_frames.write(&mut out);
     // The deepest the stack went: during a measured call, or anywhere else.
     let outside = run_top - traction_firmware::stack::used_depth(run_top, RUN_PAINT);
     let lowest = outside.min(meter.lowest());

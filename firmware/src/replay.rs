@@ -15,6 +15,9 @@
 //!   through `process_camera`.
 //! - [`run_segment`]: the reference floor segmenter on the same frames (not a
 //!   part of the estimator, which takes label maps).
+//! - [`run_flow_frames`]: the flow sensor's raw 35x35 frames through
+//!   `FrameFlow`, the tracker whose pair motions `Estimator::process_flow_frame`
+//!   takes (the alternative to the chip's motion counts).
 //!
 //! Each call of the estimator (and of the navigator and segmenter) is made
 //! through a [`Measure`]; inside the estimator, its own probe
@@ -94,11 +97,15 @@ pub enum Step {
     /// `Estimator::process_camera` of one 160x120 frame (the front end and
     /// the rest of the camera path).
     EstCamera,
+    /// `FrameFlow::push` of one 35x35 raw flow-sensor frame (high-pass,
+    /// whole-frame block match, Shi-Tomasi corners, two-level LK against the
+    /// previous frame).
+    FlowFrame,
 }
 
 impl Step {
     /// Every step, in report order.
-    pub const ALL: [Step; 18] = [
+    pub const ALL: [Step; 19] = [
         Step::Propagate,
         Step::FuseWheel,
         Step::FuseFlow,
@@ -117,6 +124,7 @@ impl Step {
         Step::Disagreement,
         Step::EstCameraMotion,
         Step::EstCamera,
+        Step::FlowFrame,
     ];
 
     /// Position in [`Step::ALL`].
@@ -162,6 +170,7 @@ impl Step {
             Step::Disagreement => "disagreement.on_frame",
             Step::EstCameraMotion => "estimator.process_camera_motion",
             Step::EstCamera => "estimator.process_camera",
+            Step::FlowFrame => "flow_frames.push",
         }
     }
 
@@ -586,6 +595,88 @@ pub fn run_segment(
         }
     }
     Ok(run)
+}
+
+/// Raw flow frames tracked by [`run_flow_frames`]: pairs, how they ended,
+/// and the tracked features' displacements summed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlowFramesRun {
+    /// Frames pushed.
+    pub frames: u32,
+    /// Pairs with a motion (every frame after the first).
+    pub pairs: u32,
+    /// Pairs refused for want of texture.
+    pub textureless: u32,
+    /// Corners found in the previous frames, summed over the pairs.
+    pub corners: u32,
+    /// Features tracked, summed over the pairs.
+    pub tracked: u32,
+    /// The tracked features' displacements summed, pixels.
+    pub sum_dx: f32,
+    /// See [`FlowFramesRun::sum_dx`].
+    pub sum_dy: f32,
+}
+
+/// Tracks every raw frame of `frame_data` (35x35 frames in the format of
+/// [`crate::frames`]) against the one before with the raw-frame tracker's
+/// default tuning.
+pub fn run_flow_frames(frame_data: &[u8], m: &mut impl Measure) -> Result<FlowFramesRun, RunError> {
+    use traction::vslam_core::flow_frames::{FrameFlow, FrameFlowConfig};
+    use traction::vslam_core::sensors::{FLOW_FRAME_LEN, FLOW_FRAME_SIDE};
+    let (h, frames) =
+        frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
+    if (h.width, h.height) != (FLOW_FRAME_SIDE, FLOW_FRAME_SIDE) {
+        return Err(RunError::Config("raw flow frames are 35x35"));
+    }
+    let mut tracker = FrameFlow::new(FrameFlowConfig::default())
+        .map_err(|_| RunError::Config("raw-frame tracker"))?;
+    let mut run = FlowFramesRun::default();
+    for (t, pixels) in frames {
+        let frame: &[u8; FLOW_FRAME_LEN] = pixels
+            .try_into()
+            .map_err(|_| RunError::Format(FormatError::Truncated))?;
+        run.frames += 1;
+        let pair = m
+            .measure(Step::FlowFrame, || tracker.push(t, frame))
+            .map_err(|_| RunError::Config("raw flow frames out of time order"))?;
+        let Some(pair) = pair else { continue };
+        run.pairs += 1;
+        run.textureless += u32::from(pair.textureless);
+        run.corners += pair.corners as u32;
+        for f in pair.features() {
+            run.tracked += 1;
+            run.sum_dx += f.dx;
+            run.sum_dy += f.dy;
+        }
+    }
+    Ok(run)
+}
+
+impl FlowFramesRun {
+    /// Every printed quantity: `(name, values)`.
+    pub fn for_each(&self, f: &mut dyn FnMut(&str, &[Value])) {
+        f(
+            "flow_frames.pairs",
+            &[
+                Value::N(self.frames),
+                Value::N(self.pairs),
+                Value::N(self.textureless),
+            ],
+        );
+        f(
+            "flow_frames.features",
+            &[Value::N(self.corners), Value::N(self.tracked)],
+        );
+        f(
+            "flow_frames.sum_displacement",
+            &[Value::F(self.sum_dx), Value::F(self.sum_dy)],
+        );
+    }
+
+    /// Writes one line `result NAME V...` per quantity.
+    pub fn write(&self, out: &mut dyn Write) -> fmt::Result {
+        write_results(out, |f| self.for_each(f))
+    }
 }
 
 impl SegmentRun {

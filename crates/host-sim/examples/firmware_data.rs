@@ -16,15 +16,29 @@
 //! [`FRAME_COUNT`] consecutive ceiling frames from [`FIRST_FRAME`] on,
 //! 2x2 box-averaged to 160x120 (intrinsics halved), for the firmware's
 //! front-end measurement.
+//!
+//! And `firmware/data/flowframes35.bin` (the same format, 35x35): the flow
+//! sensor's raw frames of the same run, [`FLOW_FRAMES`] consecutive grabs at
+//! the flow report rate from [`FLOW_FIRST_S`] on, rendered by the chip
+//! simulator's frame renderer (`host_sim::sim::flow_frames`) and read
+//! through the real driver's frame-grab path, for the firmware's raw-frame
+//! measurement.
 #![allow(missing_docs)]
 
 use std::path::PathBuf;
 
 use host_sim::pngio::load_gray;
+use host_sim::sim::drivers::FrameGrabber;
+use host_sim::sim::flow_frames::FlowFrameRenderer;
+use host_sim::sim::motion::{TRUTH_STEP_NS, TruthStep};
 use host_sim::sim::scenario::{Scenario, generate};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::decompose::PinholeIntrinsics;
+use traction::vslam_core::flow_frames::FOCAL_PX;
 use traction::vslam_core::geometry::Extrinsics;
+use traction::vslam_core::sensors::FLOW_FRAME_SIDE;
 
 #[path = "../../../firmware/src/sample.rs"]
 #[allow(dead_code)]
@@ -41,6 +55,9 @@ const SEED: u64 = 7;
 /// First camera frame (3 s into the drive) and frames for the front end.
 const FIRST_FRAME: usize = 30;
 const FRAME_COUNT: usize = 3;
+/// First raw flow frame's time into the drive, s, and raw frames.
+const FLOW_FIRST_S: f64 = 3.0;
+const FLOW_FRAMES: usize = 11;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args()
@@ -49,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or_else(|| {
             PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware/data/sample.bin")
         });
-    let (bytes, frames) = sample_data()?;
+    let (bytes, frames, flow_frames) = sample_data()?;
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
     }
@@ -58,7 +75,51 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = out.with_file_name("frames160.bin");
     std::fs::write(&out, &frames)?;
     println!("wrote {} ({} bytes)", out.display(), frames.len());
+    let out = out.with_file_name("flowframes35.bin");
+    std::fs::write(&out, &flow_frames)?;
+    println!("wrote {} ({} bytes)", out.display(), flow_frames.len());
     Ok(())
+}
+
+/// The flow sensor's raw frames over `truth` from [`FLOW_FIRST_S`] on, one
+/// per flow report, in the format of `firmware/src/frames.rs` (intrinsics:
+/// the raw frame's focal length and centre, pixels).
+fn raw_flow_frames(
+    scenario: &Scenario,
+    truth: &[TruthStep],
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    let renderer = FlowFrameRenderer::new(&scenario.flow);
+    let mut grabber = FrameGrabber::new()?;
+    let mut rng = ChaCha8Rng::seed_from_u64(SEED ^ 0x00F1_0F4A_3EF1_0F4A);
+    let every = ((1e9 / scenario.flow.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+    let first = (FLOW_FIRST_S * 1e9) as u64;
+    let start = truth
+        .iter()
+        .position(|s| s.t_ns >= first)
+        .ok_or("the drive ends before the raw frames")?;
+    let centre = (FLOW_FRAME_SIDE / 2) as f32;
+    let header = frames::FramesHeader {
+        width: FLOW_FRAME_SIDE,
+        height: FLOW_FRAME_SIDE,
+        intrinsics: [FOCAL_PX, FOCAL_PX, centre, centre],
+        count: FLOW_FRAMES,
+    };
+    let mut bytes = Vec::new();
+    frames::write_header(&header, &mut |b: &[u8]| bytes.extend_from_slice(b));
+    let mut written = 0;
+    for s in truth.iter().skip(start).step_by(every).take(FLOW_FRAMES) {
+        let pixels = grabber.grab(&renderer.render(&scenario.world, s, &mut rng))?;
+        frames::write_frame(
+            traction::vslam_core::Timestamp(s.t_ns),
+            &pixels,
+            &mut |b: &[u8]| bytes.extend_from_slice(b),
+        );
+        written += 1;
+    }
+    if written != FLOW_FRAMES {
+        return Err("the drive ends before the last raw frame".into());
+    }
+    Ok(bytes)
 }
 
 /// `img` (`w x h`) averaged over 2x2 blocks, rounded.
@@ -73,10 +134,13 @@ fn half(img: &[u8], w: usize, h: usize) -> Vec<u8> {
     out
 }
 
-fn sample_data() -> Result<(Vec<u8>, Vec<u8>), Box<dyn std::error::Error>> {
+type Data = (Vec<u8>, Vec<u8>, Vec<u8>);
+
+fn sample_data() -> Result<Data, Box<dyn std::error::Error>> {
     let scenario = Scenario::by_name("short").ok_or("no `short` scenario")?;
     let dir = std::env::temp_dir().join(format!("traction-firmware-data-{}", std::process::id()));
-    let (ds, _truth) = generate(&scenario, SEED, &dir)?;
+    let (ds, truth) = generate(&scenario, SEED, &dir)?;
+    let flow_frames = raw_flow_frames(&scenario, &truth)?;
     let (imu_meta, imu) = ds.imu.as_ref().ok_or("no IMU stream")?;
     let (wheel_meta, wheels) = ds.wheel.as_ref().ok_or("no wheel stream")?;
     let (flow_meta, flow) = ds.flow.as_ref().ok_or("no flow stream")?;
@@ -174,5 +238,5 @@ fn sample_data() -> Result<(Vec<u8>, Vec<u8>), Box<dyn std::error::Error>> {
         motions.len(),
         frames.len()
     );
-    Ok((bytes, small))
+    Ok((bytes, small, flow_frames))
 }

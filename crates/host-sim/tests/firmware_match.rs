@@ -39,19 +39,21 @@ mod replay;
 #[path = "../../../firmware/src/budget.rs"]
 mod budget;
 
-use replay::{FrontEndRun, SegmentRun, Summary, Unmeasured, Value};
+use replay::{FlowFramesRun, FrontEndRun, SegmentRun, Summary, Unmeasured, Value};
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
 
 static SAMPLE: &[u8] = include_bytes!("../../../firmware/data/sample.bin");
 static FRAMES: &[u8] = include_bytes!("../../../firmware/data/frames160.bin");
+static FLOW_FRAMES: &[u8] = include_bytes!("../../../firmware/data/flowframes35.bin");
 
-/// The host's run of the parts of the firmware: the loop, the front end and
-/// the floor segmenter.
+/// The host's run of the parts of the firmware: the loop, the front end,
+/// the floor segmenter and the raw flow-frame tracker.
 struct Host {
     summary: Summary,
     frontend: FrontEndRun,
     segment: SegmentRun,
+    flow_frames: FlowFramesRun,
 }
 
 impl Host {
@@ -61,6 +63,7 @@ impl Host {
         self.summary.for_each(&mut push);
         self.frontend.for_each(&mut push);
         self.segment.for_each(&mut push);
+        self.flow_frames.for_each(&mut push);
         v
     }
 
@@ -69,6 +72,7 @@ impl Host {
         self.summary.write(&mut text).unwrap();
         self.frontend.write(&mut text).unwrap();
         self.segment.write(&mut text).unwrap();
+        self.flow_frames.write(&mut text).unwrap();
         text
     }
 }
@@ -97,10 +101,13 @@ fn host_run() -> Host {
         .expect("the frames run");
     let mut map = vec![0u8; fh.width / 2 * (fh.height / 2)];
     let segment = replay::run_segment(FRAMES, &mut map, &mut Unmeasured).expect("the frames label");
+    let flow_frames =
+        replay::run_flow_frames(FLOW_FRAMES, &mut Unmeasured).expect("the raw flow frames track");
     Host {
         summary,
         frontend,
         segment,
+        flow_frames,
     }
 }
 
@@ -273,6 +280,16 @@ fn host_loop_runs_the_sample_data() {
     let seg = &host.segment;
     assert_eq!(seg.maps, 3);
     assert_eq!(seg.classes.iter().sum::<u32>(), 3 * 80 * 60);
+    // Every raw flow frame after the first makes a pair, most of them with
+    // features (3 of the 10 on this floor are refused as textureless): the
+    // floor moves backwards in the image, a few pixels per 10 ms report
+    // (3.9 px on average here).
+    let ff = &host.flow_frames;
+    assert_eq!((ff.frames, ff.pairs), (11, 10));
+    assert!(ff.textureless <= 3, "{ff:?}");
+    assert!(ff.tracked >= 7 * 10, "{ff:?}");
+    let mean_dx = ff.sum_dx / ff.tracked as f32;
+    assert!(mean_dx < -1.0 && mean_dx > -6.0, "{ff:?}");
     // The printed form reads back exactly.
     let (problems, worst) = compare(&text, &host);
     assert!(problems.is_empty(), "{problems:#?}");
@@ -404,4 +421,21 @@ fn budget_sums_medians_at_each_rate() {
     );
     assert!(budget::total(no_frontend).per_second < total.per_second);
     assert!(total.percent_of(budget::M7_HZ) < total.percent_of(budget::M4_HZ));
+    // An alternative takes its task's place: the flow sensor's raw frames
+    // (FlowFrame, index 18) at 100 Hz instead of the counts' ScaleFlow +
+    // FuseFlow (indices 6 and 2).
+    let frames = &budget::ALTERNATIVES[0];
+    assert_eq!(
+        (frames.task.name, frames.replaces),
+        ("flow_frames_100hz", "flow_100hz")
+    );
+    assert!(budget::LOOP.iter().any(|t| t.name == frames.replaces));
+    let with = budget::total_with(frames, all).expect("measured");
+    assert_eq!(
+        with.per_second,
+        total.per_second - (1060 + 1020) * 100 + 1180 * 100
+    );
+    // Not measured: no alternative total.
+    let no_frames = |s: Step| (s != Step::FlowFrame).then(|| all(s)).flatten();
+    assert!(budget::total_with(frames, no_frames).is_none());
 }

@@ -72,7 +72,11 @@ mod tests {
         let b: [u8; 64] = core::array::from_fn(|_| next());
         for (i, j, n) in [(0, 0, 64), (1, 3, 35), (5, 0, 21), (0, 7, 3), (2, 2, 0)] {
             let (x, y) = (&a[i..i + n], &b[j..j + n]);
-            let want: u32 = x.iter().zip(y).map(|(p, q)| (*p as i32 - *q as i32).unsigned_abs()).sum();
+            let want: u32 = x
+                .iter()
+                .zip(y)
+                .map(|(p, q)| (*p as i32 - *q as i32).unsigned_abs())
+                .sum();
             assert_eq!(sad(x, y), want, "{i} {j} {n}");
         }
         // The shorter row's length; extremes.
