@@ -139,6 +139,20 @@ pub fn wheel_distrust(decision: &FrameDecision, factor: f32) -> Option<(Timestam
     Some((Timestamp(decision.t1.0.saturating_add(interval)), factor))
 }
 
+/// Whether a wheel sample's forward innovation `forward` (m/s) with
+/// variance `var` passes the grip's chi-square `gate`. The floor's slip
+/// learner also reads a forward row the filter refused whatever its test
+/// (the scale pipeline's verdict with an infinite factor, or the flow's
+/// refutation) when the row passes this test: a learned slip that is off
+/// makes the corrected wheel distance an outlier against the flow, the
+/// verdict then refuses the wheels, and without this the slip could not be
+/// learned back while the robot stays on that floor (the wheels refused for
+/// 13 s on a carpet in the chaos hour). A row that fails the test (spinning
+/// wheels, a stuck robot) still teaches nothing.
+pub fn passes_gate(forward: f32, var: f32, gate: f32) -> bool {
+    var > 0.0 && forward * forward <= gate * var
+}
+
 /// Why the estimator could not be built.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum EstimatorError {
@@ -826,7 +840,13 @@ impl<
                     // The learners read the forward row: gated when it was not fused.
                     let forward_gated = !inn.forward_fused;
                     let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, forward_gated);
-                    let _ = s.on_wheel_slip(t, inn.forward, inn.speed, forward_gated);
+                    let slip_gated = forward_gated
+                        && !passes_gate(
+                            inn.forward,
+                            inn.forward_var,
+                            self.ekf.grip().forward_gate(),
+                        );
+                    let _ = s.on_wheel_slip(t, inn.forward, inn.speed, slip_gated);
                 }
                 fused
             }
@@ -924,6 +944,27 @@ impl<
             .as_ref()
             .map(|f| *f.counts())
             .unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod slip_learning_tests {
+    use super::passes_gate;
+
+    /// The slip learner's test of a refused forward row: the chaos hour's
+    /// carpet sample (innovation -0.0395 m/s, variance 0.00242, NIS 0.64)
+    /// passes a gate of 6.63; spinning wheels (0.3 m/s against a robot at
+    /// rest) do not; nothing passes on a variance that is not positive or
+    /// on a NaN.
+    #[test]
+    fn a_refused_row_teaches_the_slip_only_within_the_gate() {
+        assert!(passes_gate(-0.0395, 0.00242, 6.63));
+        assert!(!passes_gate(0.3, 0.00242, 6.63));
+        assert!(passes_gate(0.0, 1e-6, 0.0));
+        assert!(!passes_gate(0.01, 0.0, 6.63));
+        assert!(!passes_gate(0.01, -1.0, 6.63));
+        assert!(!passes_gate(f32::NAN, 0.00242, 6.63));
+        assert!(!passes_gate(0.01, f32::NAN, 6.63));
     }
 }
 
