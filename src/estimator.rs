@@ -139,18 +139,20 @@ pub fn wheel_distrust(decision: &FrameDecision, factor: f32) -> Option<(Timestam
     Some((Timestamp(decision.t1.0.saturating_add(interval)), factor))
 }
 
-/// Whether a wheel sample's forward innovation `forward` (m/s) with
-/// variance `var` passes the grip's chi-square `gate`. The floor's slip
-/// learner also reads a forward row the filter refused whatever its test
-/// (the scale pipeline's verdict with an infinite factor, or the flow's
-/// refutation) when the row passes this test: a learned slip that is off
-/// makes the corrected wheel distance an outlier against the flow, the
-/// verdict then refuses the wheels, and without this the slip could not be
-/// learned back while the robot stays on that floor (the wheels refused for
-/// 13 s on a carpet in the chaos hour). A row that fails the test (spinning
-/// wheels, a stuck robot) still teaches nothing.
-pub fn passes_gate(forward: f32, var: f32, gate: f32) -> bool {
-    var > 0.0 && forward * forward <= gate * var
+/// Whether a wheel sample's forward row, refused by the filter, still
+/// teaches the floor's slip learner: its innovation `forward` (m/s, the
+/// slip-corrected wheel speed minus the filter's) is negative, so it can
+/// only lower the expected slip, and passes the grip's chi-square `gate`
+/// with variance `var`. A refused row is suspected of slipping, and
+/// slipping wheels over-count: they may not raise the expected slip (a
+/// wheel-spin episode would become the floor's slip). But a learned slip
+/// that is too high under-counts the corrected wheel distance, the scale
+/// pipeline then finds the wheels an outlier against the flow and its
+/// verdict refuses them, and without this the slip could not be learned
+/// back while the robot stays on that floor (the wheels refused for 13 s
+/// on a carpet in the chaos hour).
+pub fn lowers_slip(forward: f32, var: f32, gate: f32) -> bool {
+    forward < 0.0 && var > 0.0 && forward * forward <= gate * var
 }
 
 /// Why the estimator could not be built.
@@ -841,7 +843,7 @@ impl<
                     let forward_gated = !inn.forward_fused;
                     let _ = s.on_wheel_innovation(t, inn.forward, inn.forward_var, forward_gated);
                     let slip_gated = forward_gated
-                        && !passes_gate(
+                        && !lowers_slip(
                             inn.forward,
                             inn.forward_var,
                             self.ekf.grip().forward_gate(),
@@ -949,22 +951,24 @@ impl<
 
 #[cfg(test)]
 mod slip_learning_tests {
-    use super::passes_gate;
+    use super::lowers_slip;
 
     /// The slip learner's test of a refused forward row: the chaos hour's
     /// carpet sample (innovation -0.0395 m/s, variance 0.00242, NIS 0.64)
-    /// passes a gate of 6.63; spinning wheels (0.3 m/s against a robot at
-    /// rest) do not; nothing passes on a variance that is not positive or
-    /// on a NaN.
+    /// lowers the slip within a gate of 6.63; the same row the other way
+    /// (wheels over-counting, as slipping wheels do) does not, nor do
+    /// blocked wheels far outside the gate; nothing passes on a variance
+    /// that is not positive or on a NaN.
     #[test]
-    fn a_refused_row_teaches_the_slip_only_within_the_gate() {
-        assert!(passes_gate(-0.0395, 0.00242, 6.63));
-        assert!(!passes_gate(0.3, 0.00242, 6.63));
-        assert!(passes_gate(0.0, 1e-6, 0.0));
-        assert!(!passes_gate(0.01, 0.0, 6.63));
-        assert!(!passes_gate(0.01, -1.0, 6.63));
-        assert!(!passes_gate(f32::NAN, 0.00242, 6.63));
-        assert!(!passes_gate(0.01, f32::NAN, 6.63));
+    fn a_refused_row_only_lowers_the_slip_and_only_within_the_gate() {
+        assert!(lowers_slip(-0.0395, 0.00242, 6.63));
+        assert!(!lowers_slip(0.0395, 0.00242, 6.63));
+        assert!(!lowers_slip(-0.3, 0.00242, 6.63));
+        assert!(!lowers_slip(0.0, 1e-6, 6.63));
+        assert!(!lowers_slip(-0.01, 0.0, 6.63));
+        assert!(!lowers_slip(-0.01, -1.0, 6.63));
+        assert!(!lowers_slip(f32::NAN, 0.00242, 6.63));
+        assert!(!lowers_slip(-0.01, f32::NAN, 6.63));
     }
 }
 
