@@ -28,12 +28,9 @@
 use std::path::PathBuf;
 
 use host_sim::pngio::load_gray;
-use host_sim::sim::drivers::FrameGrabber;
-use host_sim::sim::flow_frames::FlowFrameRenderer;
-use host_sim::sim::motion::{TRUTH_STEP_NS, TruthStep};
+use host_sim::sim::flow_frames;
+use host_sim::sim::motion::TruthStep;
 use host_sim::sim::scenario::{Scenario, generate};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use traction::frontend::{FrontEnd, FrontEndBuffers, FrontEndConfig};
 use traction::vslam_core::decompose::PinholeIntrinsics;
 use traction::vslam_core::flow_frames::FOCAL_PX;
@@ -82,16 +79,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// The flow sensor's raw frames over `truth` from [`FLOW_FIRST_S`] on, one
-/// per flow report, in the format of `firmware/src/frames.rs` (intrinsics:
-/// the raw frame's focal length and centre, pixels).
+/// per flow report ([`flow_frames::grabs`]), in the format of
+/// `firmware/src/frames.rs` (intrinsics: the raw frame's focal length and
+/// centre, pixels).
 fn raw_flow_frames(
     scenario: &Scenario,
     truth: &[TruthStep],
 ) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
-    let renderer = FlowFrameRenderer::new(&scenario.flow);
-    let mut grabber = FrameGrabber::new()?;
-    let mut rng = ChaCha8Rng::seed_from_u64(SEED ^ 0x00F1_0F4A_3EF1_0F4A);
-    let every = ((1e9 / scenario.flow.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
     let first = (FLOW_FIRST_S * 1e9) as u64;
     let start = truth
         .iter()
@@ -106,14 +100,13 @@ fn raw_flow_frames(
     };
     let mut bytes = Vec::new();
     frames::write_header(&header, &mut |b: &[u8]| bytes.extend_from_slice(b));
+    let tail = truth.get(start..).unwrap_or(&[]);
     let mut written = 0;
-    for s in truth.iter().skip(start).step_by(every).take(FLOW_FRAMES) {
-        let pixels = grabber.grab(&renderer.render(&scenario.world, s, &mut rng))?;
-        frames::write_frame(
-            traction::vslam_core::Timestamp(s.t_ns),
-            &pixels,
-            &mut |b: &[u8]| bytes.extend_from_slice(b),
-        );
+    for grab in flow_frames::grabs(&scenario.world, &scenario.flow, tail, SEED)?.take(FLOW_FRAMES) {
+        let grab = grab?;
+        frames::write_frame(grab.t, &grab.pixels, &mut |b: &[u8]| {
+            bytes.extend_from_slice(b)
+        });
         written += 1;
     }
     if written != FLOW_FRAMES {

@@ -187,11 +187,44 @@ impl FlowFrameRenderer {
     }
 }
 
-/// The `flowraw0` stream of a run: a frame at every flow report time
-/// (`model.rate_hz`) rendered from `truth`, grabbed through the chip
-/// simulator and the driver ([`FrameGrabber`]), written as
-/// `root/mav0/flowraw0/data/<t>.png`. The noise has its own generator
-/// seeded from `seed`, so the other streams do not change with it.
+/// One grab of [`grabs`]: its time, the rendered frame (for its shutter)
+/// and the pixels the driver read.
+pub struct Grab {
+    /// Time of the grab.
+    pub t: Timestamp,
+    /// The frame the chip simulator was given.
+    pub frame: RawFrame,
+    /// The pixels read back through the driver's frame-grab path.
+    pub pixels: [u8; FLOW_FRAME_LEN],
+}
+
+/// Raw frames at every flow report time (`model.rate_hz`) of `truth`
+/// (from its first step on), each rendered and grabbed through the chip
+/// simulator and the driver ([`FrameGrabber`]). The noise has its own
+/// generator seeded from `seed`, so the other streams do not change with it.
+pub fn grabs<'a>(
+    world: &'a World,
+    model: &FlowModel,
+    truth: &'a [TruthStep],
+    seed: u64,
+) -> Result<impl Iterator<Item = Result<Grab, CliError>> + 'a, CliError> {
+    let renderer = FlowFrameRenderer::new(model);
+    let mut grabber = FrameGrabber::new()?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x00F1_0F4A_3EF1_0F4A);
+    let every = ((1e9 / model.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
+    Ok(truth.iter().step_by(every).map(move |s| {
+        let frame = renderer.render(world, s, &mut rng);
+        let pixels = grabber.grab(&frame)?;
+        Ok(Grab {
+            t: Timestamp(s.t_ns),
+            frame,
+            pixels,
+        })
+    }))
+}
+
+/// The `flowraw0` stream of a run: the [`grabs`] of `truth`, written as
+/// `root/mav0/flowraw0/data/<t>.png`.
 pub fn record(
     world: &World,
     model: &FlowModel,
@@ -202,15 +235,10 @@ pub fn record(
     let dir = root.join("mav0/flowraw0/data");
     std::fs::create_dir_all(&dir)
         .map_err(|e| CliError::file(&dir, format!("cannot create: {e}")))?;
-    let renderer = FlowFrameRenderer::new(model);
-    let mut grabber = FrameGrabber::new()?;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x00F1_0F4A_3EF1_0F4A);
-    let every = ((1e9 / model.rate_hz) as u64 / TRUTH_STEP_NS).max(1) as usize;
     let mut entries = Vec::new();
-    for s in truth.iter().step_by(every) {
-        let frame = renderer.render(world, s, &mut rng);
-        let pixels = grabber.grab(&frame)?;
-        let path = dir.join(format!("{}.png", s.t_ns));
+    for grab in grabs(world, model, truth, seed)? {
+        let Grab { t, frame, pixels } = grab?;
+        let path = dir.join(format!("{}.png", t.0));
         save_gray(
             &path,
             &GrayImage {
@@ -220,7 +248,7 @@ pub fn record(
             },
         )?;
         entries.push(FlowFrameEntry {
-            t: Timestamp(s.t_ns),
+            t,
             path,
             shutter: frame.shutter,
         });
