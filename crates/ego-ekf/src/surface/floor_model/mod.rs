@@ -73,6 +73,23 @@ impl MlpWeights {
     /// the ReLU holds at zero adds nothing and is skipped (a score that
     /// would be a sum of zeros may come out `-0.0` instead of `+0.0`).
     pub fn scores(&self, f: &[f32; FEATURES]) -> [f32; CLASSES] {
+        self.scores_by(f, |out, j, a| {
+            for (o, w2) in out.iter_mut().zip(&self.w2) {
+                if let Some(w) = w2.get(j) {
+                    *o += w * a;
+                }
+            }
+        })
+    }
+
+    /// The scores with the output layer's step for one active hidden unit
+    /// given by `unit(out, j, a)`: add `w2[k][j] * a` to each `out[k]`.
+    #[inline(always)]
+    fn scores_by(
+        &self,
+        f: &[f32; FEATURES],
+        mut unit: impl FnMut(&mut [f32; CLASSES], usize, f32),
+    ) -> [f32; CLASSES] {
         let mut x = [0.0f32; FEATURES];
         for ((xi, fi), (m, s)) in x.iter_mut().zip(f).zip(self.mean.iter().zip(&self.scale)) {
             *xi = (fi - m) * s;
@@ -83,11 +100,7 @@ impl MlpWeights {
             // ReLU as a compare (`f32::max` is a call to the software
             // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
             if a > 0.0 {
-                for (o, w2) in out.iter_mut().zip(&self.w2) {
-                    if let Some(w) = w2.get(j) {
-                        *o += w * a;
-                    }
-                }
+                unit(&mut out, j, a);
             }
         }
         for (o, b) in out.iter_mut().zip(&self.b2) {
@@ -96,23 +109,65 @@ impl MlpWeights {
         out
     }
 
+    /// The output layer's weights by hidden unit: `[j][k]` is `w2[k][j]`.
+    #[allow(clippy::indexing_slicing)] // j < HIDDEN, k < CLASSES: the arrays' own lengths
+    pub const fn w2_by_unit(&self) -> [[f32; CLASSES]; HIDDEN] {
+        let mut t = [[0.0f32; CLASSES]; HIDDEN];
+        let mut j = 0;
+        while j < HIDDEN {
+            let mut k = 0;
+            while k < CLASSES {
+                t[j][k] = self.w2[k][j];
+                k += 1;
+            }
+            j += 1;
+        }
+        t
+    }
+
+    /// [`MlpWeights::scores`] with the output layer given by hidden unit
+    /// (`by_unit` from [`MlpWeights::w2_by_unit`]): the same operations in
+    /// the same order, so the same bits, with one active unit's seven
+    /// weights read from one place.
+    pub fn scores_by_unit(
+        &self,
+        by_unit: &[[f32; CLASSES]; HIDDEN],
+        f: &[f32; FEATURES],
+    ) -> [f32; CLASSES] {
+        self.scores_by(f, |out, j, a| {
+            if let Some(ws) = by_unit.get(j) {
+                for (o, w) in out.iter_mut().zip(ws) {
+                    *o += w * a;
+                }
+            }
+        })
+    }
+
     /// The class id with the highest score (the lowest id on a tie; a
     /// non-finite score never wins).
     pub fn classify(&self, f: &[f32; FEATURES]) -> u8 {
-        let mut best = (0u8, f32::NEG_INFINITY);
-        for (k, s) in self.scores(f).into_iter().enumerate() {
-            if s > best.1 {
-                best = (k as u8, s);
-            }
-        }
-        best.0
+        best_class(self.scores(f))
     }
+}
+
+/// The class id with the highest score (the lowest id on a tie; a
+/// non-finite score never wins).
+fn best_class(scores: [f32; CLASSES]) -> u8 {
+    let mut best = (0u8, f32::NEG_INFINITY);
+    for (k, s) in scores.into_iter().enumerate() {
+        if s > best.1 {
+            best = (k as u8, s);
+        }
+    }
+    best.0
 }
 
 /// The reference floor-surface segmenter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FloorModel {
     weights: MlpWeights,
+    /// `weights.w2` by hidden unit ([`MlpWeights::w2_by_unit`]).
+    w2_by_unit: [[f32; CLASSES]; HIDDEN],
 }
 
 impl Default for FloorModel {
@@ -124,19 +179,26 @@ impl Default for FloorModel {
 impl FloorModel {
     /// The model with the generated reference weights.
     pub const fn reference() -> Self {
-        FloorModel {
-            weights: MlpWeights::REFERENCE,
-        }
+        FloorModel::with_weights(MlpWeights::REFERENCE)
     }
 
     /// The model with other weights (a training run evaluating its own).
     pub const fn with_weights(weights: MlpWeights) -> Self {
-        FloorModel { weights }
+        FloorModel {
+            w2_by_unit: weights.w2_by_unit(),
+            weights,
+        }
     }
 
     /// The weights in use.
     pub fn weights(&self) -> &MlpWeights {
         &self.weights
+    }
+
+    /// The class id of one cell's features: [`MlpWeights::classify`], bit
+    /// for bit, with the output layer read by hidden unit.
+    pub fn classify(&self, f: &[f32; FEATURES]) -> u8 {
+        best_class(self.weights.scores_by_unit(&self.w2_by_unit, f))
     }
 
     /// What each class id means: 1 not ground, 2-5 the four floors, 6 a
@@ -175,16 +237,16 @@ impl Segmenter for FloorModel {
         // From running sums; cell by cell when the image is wider than the
         // tables (the same features either way).
         let mut rows = RowFeatures::new();
-        let weights = &self.weights;
+        let model = &*self;
         let done = rows.each_cell(image, |cx, cy, f| {
             if let Some(slot) = map.get_mut(cy * w + cx) {
-                *slot = weights.classify(&f);
+                *slot = model.classify(&f);
             }
         });
         if !done {
             for (cy, labels) in map.chunks_exact_mut(w).enumerate() {
                 for (cx, slot) in labels.iter_mut().enumerate() {
-                    *slot = weights.classify(&cell_features(image, cx, cy));
+                    *slot = model.classify(&cell_features(image, cx, cy));
                 }
             }
         }
@@ -240,6 +302,9 @@ mod tests {
         // hidden units are idle and others not: the same scores up to the
         // sign of a zero, and so the same class, on every draw.
         let m = MlpWeights::REFERENCE;
+        let model = FloorModel::reference();
+        let by_unit_weights = m.w2_by_unit();
+        assert_eq!(by_unit_weights[3][5].to_bits(), m.w2[5][3].to_bits());
         let mut s = 0x2545_f491u32;
         let mut uniform = || {
             s ^= s << 13;
@@ -253,6 +318,9 @@ mod tests {
                 core::array::from_fn(|i| m.mean[i] + 3.0 * uniform() / m.scale[i]);
             let dense = dense_scores(&m, &f);
             let sparse = m.scores(&f);
+            let by_unit = m.scores_by_unit(&by_unit_weights, &f);
+            assert_eq!(by_unit.map(f32::to_bits), sparse.map(f32::to_bits));
+            assert_eq!(model.classify(&f), m.classify(&f));
             for (a, b) in dense.iter().zip(&sparse) {
                 assert!(
                     a.to_bits() == b.to_bits() || (*a == 0.0 && *b == 0.0),
