@@ -73,40 +73,7 @@ impl MlpWeights {
     /// the ReLU holds at zero adds nothing and is skipped (a score that
     /// would be a sum of zeros may come out `-0.0` instead of `+0.0`).
     pub fn scores(&self, f: &[f32; FEATURES]) -> [f32; CLASSES] {
-        self.scores_by(f, |out, j, a| {
-            for (o, w2) in out.iter_mut().zip(&self.w2) {
-                if let Some(w) = w2.get(j) {
-                    *o += w * a;
-                }
-            }
-        })
-    }
-
-    /// The scores with the output layer's step for one active hidden unit
-    /// given by `unit(out, j, a)`: add `w2[k][j] * a` to each `out[k]`.
-    #[inline(always)]
-    fn scores_by(
-        &self,
-        f: &[f32; FEATURES],
-        mut unit: impl FnMut(&mut [f32; CLASSES], usize, f32),
-    ) -> [f32; CLASSES] {
-        let mut x = [0.0f32; FEATURES];
-        for ((xi, fi), (m, s)) in x.iter_mut().zip(f).zip(self.mean.iter().zip(&self.scale)) {
-            *xi = (fi - m) * s;
-        }
-        let mut out = [-0.0f32; CLASSES];
-        for (j, (row, b)) in self.w1.iter().zip(&self.b1).enumerate() {
-            let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
-            // ReLU as a compare (`f32::max` is a call to the software
-            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
-            if a > 0.0 {
-                unit(&mut out, j, a);
-            }
-        }
-        for (o, b) in out.iter_mut().zip(&self.b2) {
-            *o += b;
-        }
-        out
+        self.scores_by_unit(&self.w2_by_unit(), f)
     }
 
     /// The output layer's weights by hidden unit: `[j][k]` is `w2[k][j]`.
@@ -125,22 +92,34 @@ impl MlpWeights {
         t
     }
 
-    /// [`MlpWeights::scores`] with the output layer given by hidden unit
-    /// (`by_unit` from [`MlpWeights::w2_by_unit`]): the same operations in
-    /// the same order, so the same bits, with one active unit's seven
-    /// weights read from one place.
+    /// [`MlpWeights::scores`] with the output layer already by hidden unit
+    /// (`by_unit` from [`MlpWeights::w2_by_unit`], built once by
+    /// [`FloorModel`]), so an active unit's seven weights are read from one
+    /// row.
     pub fn scores_by_unit(
         &self,
         by_unit: &[[f32; CLASSES]; HIDDEN],
         f: &[f32; FEATURES],
     ) -> [f32; CLASSES] {
-        self.scores_by(f, |out, j, a| {
-            if let Some(ws) = by_unit.get(j) {
+        let mut x = [0.0f32; FEATURES];
+        for ((xi, fi), (m, s)) in x.iter_mut().zip(f).zip(self.mean.iter().zip(&self.scale)) {
+            *xi = (fi - m) * s;
+        }
+        let mut out = [-0.0f32; CLASSES];
+        for ((row, b), ws) in self.w1.iter().zip(&self.b1).zip(by_unit) {
+            let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
+            // ReLU as a compare (`f32::max` is a call to the software
+            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
+            if a > 0.0 {
                 for (o, w) in out.iter_mut().zip(ws) {
                     *o += w * a;
                 }
             }
-        })
+        }
+        for (o, b) in out.iter_mut().zip(&self.b2) {
+            *o += b;
+        }
+        out
     }
 
     /// The class id with the highest score (the lowest id on a tie; a
