@@ -18,6 +18,7 @@ use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
 use traction::ego_ekf::EgoEkf;
 use traction::ego_ekf::state::{Covariance, NominalState};
+use traction::ego_ekf::surface::floor_model::RowFeatures;
 use traction::estimator::{
     Estimator, EstimatorWith, JOLT_LOG, REORDER_CAPACITY, SCALE_WINDOW, TRAJECTORY_CAPACITY,
 };
@@ -53,6 +54,8 @@ static mut FE_CURRENT_PYRAMID: [u8; FE_SIZES[2]] = [0; FE_SIZES[2]];
 static mut FE_CORNER_SCRATCH: [f32; FE_SIZES[3]] = [0.0; FE_SIZES[3]];
 /// The floor model's label map for a 160x120 frame (2x2 cells).
 static mut SEGMENT_MAP: [u8; FRAME.0 / 2 * (FRAME.1 / 2)] = [0; FRAME.0 / 2 * (FRAME.1 / 2)];
+/// The floor model's window sums' tables (in static RAM, not on the stack).
+static mut SEGMENT_TABLES: RowFeatures = RowFeatures::new();
 /// The estimator, built at compile time (`unconfigured_with_probe` is a
 /// `const fn`) and configured in place by `replay::run`: `Estimator` with
 /// the firmware's probe around its parts (zero bytes, the same size).
@@ -196,6 +199,7 @@ fn sizes(out: &mut Out) {
                 + size_of::<FrontEnd<'static>>(),
         );
     }
+    size("segment.RowFeatures", size_of::<RowFeatures>());
 }
 
 /// The estimator's memory: the peak stack of its calls against the limit,
@@ -325,7 +329,9 @@ fn run(mut core: cortex_m::Peripherals) -> ! {
     meter::with(|m| m.depth = traction_firmware::stack::DEPTH);
     // SAFETY: the only reference ever made to this static, made once.
     let segment_map = unsafe { &mut *core::ptr::addr_of_mut!(SEGMENT_MAP) };
-    let segment = match replay::run_segment(FRAMES, segment_map, &mut Metered) {
+    // SAFETY: the only reference ever made to this static, made once.
+    let segment_tables = unsafe { &mut *core::ptr::addr_of_mut!(SEGMENT_TABLES) };
+    let segment = match replay::run_segment(FRAMES, segment_map, segment_tables, &mut Metered) {
         Ok(s) => s,
         Err(e) => {
             let _ = writeln!(out, "error {e}");

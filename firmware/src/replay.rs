@@ -27,6 +27,7 @@
 
 use core::fmt::{self, Write};
 
+use traction::ego_ekf::surface::floor_model::RowFeatures;
 use traction::ego_ekf::{EgoEkf, ImuPlausibility};
 use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, Part, Probe};
 use traction::frontend::{FrontEndBuffers, FrontEndConfig};
@@ -561,17 +562,19 @@ pub struct SegmentRun {
 pub const FLOOR_CLASSES: usize = traction::ego_ekf::surface::floor_model::CLASSES;
 
 /// Labels every frame of `frame_data` with the reference floor model into
-/// `map` (at least a quarter of a frame: the model labels 2x2 cells).
+/// `map` (at least a quarter of a frame: the model labels 2x2 cells), its
+/// window sums' tables in `tables`.
 pub fn run_segment(
     frame_data: &[u8],
     map: &mut [u8],
+    tables: &mut RowFeatures,
     m: &mut impl Measure,
 ) -> Result<SegmentRun, RunError> {
     use traction::ego_ekf::surface::FloorModel;
     use traction::vslam_core::segment::Segmenter;
     let (h, frames) =
         frames::open(frame_data).ok_or(RunError::Format(FormatError::NotSampleData))?;
-    let mut model = FloorModel::reference();
+    let model = FloorModel::reference();
     let (w, hh) = model
         .map_size(h.width, h.height)
         .map_err(|_| RunError::Config("segmentation map size"))?;
@@ -584,7 +587,9 @@ pub fn run_segment(
         let view = ImageView::new(pixels, h.width, h.height, h.width)
             .map_err(|_| RunError::Format(FormatError::Truncated))?;
         m.measure(Step::Segment, || {
-            model.segment(&view, &mut *map).map(|_| ())
+            model
+                .segment_with(&view, &mut *map, &mut *tables)
+                .map(|_| ())
         })
         .map_err(|_| RunError::Config("segmentation map buffer"))?;
         run.maps += 1;

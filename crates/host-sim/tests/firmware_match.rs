@@ -40,6 +40,7 @@ mod replay;
 mod budget;
 
 use replay::{FlowFramesRun, FrontEndRun, SegmentRun, Summary, Unmeasured, Value};
+use traction::ego_ekf::surface::floor_model::RowFeatures;
 use traction::frontend::FrontEndBuffers;
 use traction::vslam_core::Stream;
 
@@ -100,7 +101,9 @@ fn host_run() -> Host {
     let frontend = replay::run_frontend(FRAMES, &header, &mut *est, buffers, &mut Unmeasured)
         .expect("the frames run");
     let mut map = vec![0u8; fh.width / 2 * (fh.height / 2)];
-    let segment = replay::run_segment(FRAMES, &mut map, &mut Unmeasured).expect("the frames label");
+    let mut tables = Box::new(RowFeatures::new());
+    let segment = replay::run_segment(FRAMES, &mut map, &mut tables, &mut Unmeasured)
+        .expect("the frames label");
     let flow_frames =
         replay::run_flow_frames(FLOW_FRAMES, &mut Unmeasured).expect("the raw flow frames track");
     Host {

@@ -128,262 +128,287 @@ fn features_from(sums: &[WindowSums; WINDOWS.len()], cy: usize, height: usize) -
 /// tables are sized for it); wider images take [`cell_features`].
 pub const MAX_ROW_WIDTH: usize = 160;
 
-/// Quantities summed per column, indices into [`WindowTable`]: the pixel,
-/// its square, `|p(x) - p(x - 1)|` (columns `x >= 1`), `|p(x) - p(x - 2)|`
-/// (columns `x >= 2`) and `|p(x, y) - p(x, y + 1)|`.
-const SUM: usize = 0;
-const SUM_SQ: usize = 1;
-const DX: usize = 2;
-const DX2: usize = 3;
-const DY: usize = 4;
-const QUANTITIES: usize = 5;
+/// Entries of a table: the prefix before each column and one past the last.
+const COLS: usize = MAX_ROW_WIDTH + 1;
 
-/// `a + b` (`ADD`) or `a - b`, wrapping: a row taken out was added before,
-/// so no sum ever wraps.
-#[inline(always)]
-fn apply<const ADD: bool>(a: u32, b: u32) -> u32 {
-    if ADD {
-        a.wrapping_add(b)
-    } else {
-        a.wrapping_sub(b)
+/// The largest window's half-width, px.
+#[allow(clippy::indexing_slicing)] // i < WINDOWS.len(), at compile time
+const MAX_HALF: usize = {
+    let mut m = 0;
+    let mut i = 0;
+    while i < WINDOWS.len() {
+        if WINDOWS[i] > m {
+            m = WINDOWS[i];
+        }
+        i += 1;
     }
-}
+    m
+};
 
-/// Rows `y..y + K` of `image`, each cut to its first `w` pixels; `None`
-/// when any of them is missing or shorter.
-fn rows_from<'a, const K: usize>(
-    image: &ImageView<'a>,
-    y: usize,
-    w: usize,
-) -> Option<[&'a [u8]; K]> {
-    let mut rows: [&[u8]; K] = [&[]; K];
-    for (i, row) in rows.iter_mut().enumerate() {
-        *row = image.row(y + i)?.get(..w)?;
+// Every window is a whole number of row pairs only for 2 px cells and even
+// half-widths; and 16-bit sums hold the largest window's (its pixels, and
+// its differences, of at most 255 each).
+#[allow(clippy::indexing_slicing)] // i < WINDOWS.len(), at compile time
+const _: () = {
+    assert!(CELL == 2);
+    let mut i = 0;
+    while i < WINDOWS.len() {
+        assert!(WINDOWS[i] > 0 && WINDOWS[i].is_multiple_of(2));
+        i += 1;
     }
-    Some(rows)
+    assert!(4 * MAX_HALF * MAX_HALF * 255 < 1 << 16);
+};
+
+/// Row pairs whose tables are kept: the largest window's `MAX_HALF` pairs
+/// and the one before them.
+const RING: usize = MAX_HALF + 1;
+
+/// One entry of a [`RowFeatures`] table: each quantity summed over every row
+/// pair up to the table's own and over the columns before this entry's.
+/// Pair `r` is the image rows `2r - 1` and `2r` (pair 0 is row 0 alone).
+/// The 16-bit sums wrap: a window's sum is a difference of entries, exact
+/// modulo 2^16, and below 2^16.
+#[derive(Clone, Copy, Debug)]
+struct Column {
+    /// The pixels.
+    sum: u16,
+    /// `|p(x) - p(x - 1)|` of each row (counted from column 1).
+    dx: u16,
+    /// `|p(x) - p(x - 2)|` of each row (counted from column 2).
+    dx2: u16,
+    /// `|p(2r - 1, x) - p(2r, x)|`: the vertical differences inside a pair.
+    dy_in: u16,
+    /// `|p(2r - 2, x) - p(2r - 1, x)|`: the vertical differences into a
+    /// pair from the one before.
+    dy_link: u16,
+    /// The squared pixels.
+    sum_sq: u32,
 }
 
-/// One window's column sums over the rows the window covers now, kept as
-/// prefix sums along the row: entry `x` of a quantity holds its sum over
-/// the columns before `x`. `rows` are the image rows summed for the first
-/// four quantities; [`DY`] sums the pairs `(y, y + 1)` with `y` in `pairs`
-/// (the window's rows but its last).
-struct WindowTable {
-    prefix: [[u32; MAX_ROW_WIDTH + 1]; QUANTITIES],
-    rows: (usize, usize),
-    pairs: (usize, usize),
-}
-
-impl WindowTable {
-    const EMPTY: WindowTable = WindowTable {
-        prefix: [[0; MAX_ROW_WIDTH + 1]; QUANTITIES],
-        rows: (0, 0),
-        pairs: (0, 0),
+impl Column {
+    const ZERO: Column = Column {
+        sum: 0,
+        dx: 0,
+        dx2: 0,
+        dy_in: 0,
+        dy_link: 0,
+        sum_sq: 0,
     };
+}
 
-    /// Slides the window down to rows `y0..y1` of `image` (both ends never
-    /// move up from one map row to the next): rows and pairs that enter are
-    /// added, those that leave are taken out, each once. Away from the top
-    /// and bottom borders a map row moves both ends by two rows, and the two
-    /// rows in and the two out go in one pass over the table.
-    fn slide(&mut self, image: &ImageView<'_>, y0: usize, y1: usize) {
-        let w = image.width().min(MAX_ROW_WIDTH);
-        let (r0, r1) = self.rows;
-        if (y0, y1) == (r0 + 2, r1 + 2)
-            && let (Some(enter), Some(leave)) = (rows_from(image, r1, w), rows_from(image, r0, w))
-        {
-            self.shift_rows(enter, leave);
-            self.rows = (y0, y1);
-        }
-        while self.rows.1 < y1 {
-            self.apply_row::<true>(image.row(self.rows.1), w);
-            self.rows.1 += 1;
-        }
-        while self.rows.0 < y0 {
-            self.apply_row::<false>(image.row(self.rows.0), w);
-            self.rows.0 += 1;
-        }
-        let p1 = y1.saturating_sub(1).max(y0);
-        let (q0, q1) = self.pairs;
-        if (y0, p1) == (q0 + 2, q1 + 2)
-            && let (Some(enter), Some(leave)) = (rows_from(image, q1, w), rows_from(image, q0, w))
-        {
-            self.shift_pairs(enter, leave);
-            self.pairs = (y0, p1);
-        }
-        while self.pairs.1 < p1 {
-            let y = self.pairs.1;
-            self.apply_pair::<true>(image.row(y), image.row(y + 1), w);
-            self.pairs.1 += 1;
-        }
-        while self.pairs.0 < y0.min(self.pairs.1) {
-            let y = self.pairs.0;
-            self.apply_pair::<false>(image.row(y), image.row(y + 1), w);
-            self.pairs.0 += 1;
+/// The table of one row pair.
+type PairTable = [Column; COLS];
+
+/// Where the table of pair `r` (`r` may be below 0: an empty pair) is in
+/// the ring.
+fn slot(r: isize) -> usize {
+    r.rem_euclid(RING as isize) as usize
+}
+
+/// Running sums of one row pair's quantities along the row.
+#[derive(Clone, Copy, Default)]
+struct Run {
+    sum: u32,
+    sum_sq: u32,
+    dx: u32,
+    dx2: u32,
+    dy_in: u32,
+    dy_link: u32,
+}
+
+impl Run {
+    /// `prev` (the table of the pair before) plus these sums.
+    #[inline(always)]
+    fn on(&self, prev: &Column) -> Column {
+        Column {
+            sum: prev.sum.wrapping_add(self.sum as u16),
+            dx: prev.dx.wrapping_add(self.dx as u16),
+            dx2: prev.dx2.wrapping_add(self.dx2 as u16),
+            dy_in: prev.dy_in.wrapping_add(self.dy_in as u16),
+            dy_link: prev.dy_link.wrapping_add(self.dy_link as u16),
+            sum_sq: prev.sum_sq.wrapping_add(self.sum_sq),
         }
     }
 
-    /// The entries `1..` of the four quantities a row adds (pixel, square,
-    /// first and second horizontal differences), column by column.
-    fn row_tables(&mut self) -> impl Iterator<Item = (((&mut u32, &mut u32), &mut u32), &mut u32)> {
-        let [sum, sum_sq, dx, dx2, _] = &mut self.prefix;
-        sum.iter_mut()
-            .skip(1)
-            .zip(sum_sq.iter_mut().skip(1))
-            .zip(dx.iter_mut().skip(1))
-            .zip(dx2.iter_mut().skip(1))
+    /// One row's pixel `p` with its left neighbours `p1` and `p2` (then
+    /// shifted along).
+    #[inline(always)]
+    fn pixel(&mut self, p: u32, p1: &mut u32, p2: &mut u32) {
+        self.sum = self.sum.wrapping_add(p);
+        self.sum_sq = self.sum_sq.wrapping_add(p * p);
+        self.dx = self.dx.wrapping_add(p.abs_diff(*p1));
+        self.dx2 = self.dx2.wrapping_add(p.abs_diff(*p2));
+        *p2 = *p1;
+        *p1 = p;
     }
+}
 
-    /// Adds rows `enter` and takes out rows `leave` (pixel, square and
-    /// horizontal differences) in one pass: the same table as two
-    /// [`WindowTable::apply_row`] calls of each kind.
-    fn shift_rows(&mut self, enter: [&[u8]; 2], leave: [&[u8]; 2]) {
-        let tables = self.row_tables();
-        let [a, b] = enter;
-        let [c, d] = leave;
-        let pixels = a.iter().zip(b).zip(c.iter().zip(d));
-        let mut run = [0u32; 4];
-        let (mut prev, mut prev2) = ([0u32; 4], [0u32; 4]);
-        for (x, ((((s, q), g), g2), ((&pa, &pb), (&pc, &pd)))) in tables.zip(pixels).enumerate() {
-            let p = [pa, pb, pc, pd].map(u32::from);
-            // In minus out, modulo 2^32: the running sums and the table
-            // entries they update stay the true (non-negative) sums.
-            let net = |v: [u32; 4]| {
-                v[0].wrapping_add(v[1])
-                    .wrapping_sub(v[2])
-                    .wrapping_sub(v[3])
+/// `next` = `prev` plus a pair whose three rows (`above` = `2r - 2`, `upper`
+/// = `2r - 1`, `lower` = `2r`) are all in the image. Columns 0 and 1 add
+/// differences with a zero neighbour: no window's sum reads them.
+fn full_pair(prev: &PairTable, next: &mut PairTable, above: &[u8], upper: &[u8], lower: &[u8]) {
+    let mut run = Run::default();
+    let (mut u1, mut u2, mut l1, mut l2) = (0, 0, 0, 0);
+    let pixels = above.iter().zip(upper).zip(lower);
+    for ((n, p), ((&c, &a), &b)) in next.iter_mut().skip(1).zip(prev.iter().skip(1)).zip(pixels) {
+        let (a, b, c) = (u32::from(a), u32::from(b), u32::from(c));
+        run.pixel(a, &mut u1, &mut u2);
+        run.pixel(b, &mut l1, &mut l2);
+        run.dy_in = run.dy_in.wrapping_add(a.abs_diff(b));
+        run.dy_link = run.dy_link.wrapping_add(c.abs_diff(a));
+        *n = run.on(p);
+    }
+}
+
+/// [`full_pair`] for a pair at the image's top or bottom, some of whose
+/// rows are missing (`None`): a missing row adds nothing, and no
+/// difference with it.
+fn edge_pair(
+    prev: &PairTable,
+    next: &mut PairTable,
+    above: Option<&[u8]>,
+    upper: Option<&[u8]>,
+    lower: Option<&[u8]>,
+    w: usize,
+) {
+    let px = |row: Option<&[u8]>, x: usize| row.and_then(|r| r.get(x)).map(|&p| u32::from(p));
+    let mut run = Run::default();
+    let (mut u1, mut u2, mut l1, mut l2) = (0, 0, 0, 0);
+    for x in 0..w {
+        let (c, a, b) = (px(above, x), px(upper, x), px(lower, x));
+        if let Some(a) = a {
+            run.pixel(a, &mut u1, &mut u2);
+        }
+        if let Some(b) = b {
+            run.pixel(b, &mut l1, &mut l2);
+        }
+        if let (Some(a), Some(b)) = (a, b) {
+            run.dy_in = run.dy_in.wrapping_add(a.abs_diff(b));
+        }
+        if let (Some(c), Some(a)) = (c, a) {
+            run.dy_link = run.dy_link.wrapping_add(c.abs_diff(a));
+        }
+        if let (Some(n), Some(p)) = (next.get_mut(x + 1), prev.get(x + 1)) {
+            *n = run.on(p);
+        }
+    }
+}
+
+/// Where one window's sums come from at one map row: the tables of its
+/// last pair (`hi`), of the pair before its first (`lo`) and of its first
+/// (`first`, for the links into its pairs), and its number of rows.
+struct WindowRows<'a> {
+    hi: &'a PairTable,
+    lo: &'a PairTable,
+    first: &'a PairTable,
+    rows: u32,
+}
+
+/// The entries a window's sums read from one table: at its first three
+/// columns (the pixels start at the first, the first differences at the
+/// second, the second differences at the third) and one past its last.
+type Ends = (Column, Column, Column, Column);
+
+impl WindowRows<'_> {
+    /// The sums over the window's rows and columns `px - HALF..px + HALF`,
+    /// clipped to `0..w` (`px < w <= MAX_ROW_WIDTH`, `HALF >= 2`). Away
+    /// from the left and right borders the window is `2 * HALF + 1` entries
+    /// of each table, read at fixed offsets.
+    #[inline(always)]
+    fn sums<const HALF: usize>(&self, px: usize, w: usize) -> WindowSums {
+        let ends = if px >= HALF && px + HALF <= w {
+            let at = |t: &PairTable| {
+                let s = t.get(px - HALF..=px + HALF)?;
+                let (&[a0, a1, a2], _) = s.split_first_chunk::<3>()?;
+                Some((a0, a1, a2, *s.last()?))
             };
-            run[0] = run[0].wrapping_add(net(p));
-            run[1] = run[1].wrapping_add(net(p.map(|v| v * v)));
-            let diff = |q: [u32; 4]| {
-                let ([a, b, c, d], [qa, qb, qc, qd]) = (p, q);
-                [
-                    a.abs_diff(qa),
-                    b.abs_diff(qb),
-                    c.abs_diff(qc),
-                    d.abs_diff(qd),
-                ]
+            (at(self.hi), at(self.lo), at(self.first))
+        } else {
+            let (x0, x1) = (px.saturating_sub(HALF), (px + HALF).min(w));
+            let at = |t: &PairTable| {
+                let (Some(&[a0, a1, a2]), Some(&b)) = (t.get(x0..x0 + 3), t.get(x1)) else {
+                    return None;
+                };
+                Some((a0, a1, a2, b))
             };
-            if x >= 1 {
-                run[2] = run[2].wrapping_add(net(diff(prev)));
-            }
-            if x >= 2 {
-                run[3] = run[3].wrapping_add(net(diff(prev2)));
-            }
-            prev2 = prev;
-            prev = p;
-            *s = s.wrapping_add(run[0]);
-            *q = q.wrapping_add(run[1]);
-            *g = g.wrapping_add(run[2]);
-            *g2 = g2.wrapping_add(run[3]);
-        }
-    }
-
-    /// Adds the pairs `(y, y + 1)`, `(y + 1, y + 2)` of rows `enter`
-    /// (`y..y + 3`) and takes out those of rows `leave`, in one pass.
-    fn shift_pairs(&mut self, enter: [&[u8]; 3], leave: [&[u8]; 3]) {
-        let [a, b, c] = enter;
-        let [d, e, f] = leave;
-        let pixels = a.iter().zip(b).zip(c).zip(d.iter().zip(e).zip(f));
-        let mut run = 0u32;
-        for (g, (((&pa, &pb), &pc), ((&pd, &pe), &pf))) in
-            self.prefix[DY].iter_mut().skip(1).zip(pixels)
-        {
-            let entering = u32::from(pa.abs_diff(pb)) + u32::from(pb.abs_diff(pc));
-            let leaving = u32::from(pd.abs_diff(pe)) + u32::from(pe.abs_diff(pf));
-            run = run.wrapping_add(entering).wrapping_sub(leaving);
-            *g = g.wrapping_add(run);
-        }
-    }
-
-    /// Adds (`ADD`) or takes out one row's pixel, square and horizontal
-    /// differences.
-    fn apply_row<const ADD: bool>(&mut self, row: Option<&[u8]>, w: usize) {
-        let Some(row) = row.and_then(|r| r.get(..w)) else {
-            return;
+            (at(self.hi), at(self.lo), at(self.first))
         };
-        let mut run = [0u32; 4];
-        let (mut prev, mut prev2) = (0u32, 0u32);
-        // Entry x + 1 gains the running sum over columns 0..=x.
-        let tables = self.row_tables();
-        for (x, ((((s, q), d), d2), &p)) in tables.zip(row).enumerate() {
-            let p = u32::from(p);
-            run[0] += p;
-            run[1] += p * p;
-            if x >= 1 {
-                run[2] += p.abs_diff(prev);
-            }
-            if x >= 2 {
-                run[3] += p.abs_diff(prev2);
-            }
-            prev2 = prev;
-            prev = p;
-            *s = apply::<ADD>(*s, run[0]);
-            *q = apply::<ADD>(*q, run[1]);
-            *d = apply::<ADD>(*d, run[2]);
-            *d2 = apply::<ADD>(*d2, run[3]);
+        let len = ((px + HALF).min(w) - px.saturating_sub(HALF)) as u32;
+        match ends {
+            (Some(hi), Some(lo), Some(first)) => self.sums_of(len, hi, lo, first),
+            _ => WindowSums::default(),
         }
     }
 
-    /// Adds (`ADD`) or takes out the vertical differences of rows `y` and
-    /// `y + 1`.
-    fn apply_pair<const ADD: bool>(&mut self, row: Option<&[u8]>, below: Option<&[u8]>, w: usize) {
-        let (Some(row), Some(below)) =
-            (row.and_then(|r| r.get(..w)), below.and_then(|r| r.get(..w)))
-        else {
-            return;
+    /// The sums of a window `len` columns wide from its tables' entries.
+    #[inline(always)]
+    fn sums_of(&self, len: u32, hi: Ends, lo: Ends, first: Ends) -> WindowSums {
+        let rows = self.rows;
+        let ((h0, h1, h2, hb), (l0, l1, l2, lb), (f0, _, _, fb)) = (hi, lo, first);
+        let d = |hi: u16, ha: u16, lo: u16, la: u16| {
+            u32::from(hi.wrapping_sub(ha).wrapping_sub(lo.wrapping_sub(la)))
         };
-        let mut run = 0u32;
-        for ((d, &p), &b) in self.prefix[DY].iter_mut().skip(1).zip(row).zip(below) {
-            run += u32::from(p.abs_diff(b));
-            *d = apply::<ADD>(*d, run);
-        }
-    }
-
-    /// Sum of quantity `q` over columns `a..b` (0 when empty).
-    fn span(&self, q: usize, a: usize, b: usize) -> u32 {
-        let table = self.prefix.get(q);
-        match (table.and_then(|t| t.get(a)), table.and_then(|t| t.get(b))) {
-            (Some(&lo), Some(&hi)) if b > a => hi.wrapping_sub(lo),
-            _ => 0,
-        }
-    }
-
-    /// The sums over the window's rows and columns `x0..x1`.
-    fn sums(&self, x0: usize, x1: usize) -> WindowSums {
-        let rows = self.rows.1.saturating_sub(self.rows.0) as u32;
-        let len = x1.saturating_sub(x0) as u32;
         WindowSums {
             n: len * rows,
-            sum: self.span(SUM, x0, x1),
-            sum_sq: self.span(SUM_SQ, x0, x1),
+            sum: d(hb.sum, h0.sum, lb.sum, l0.sum),
+            sum_sq: hb
+                .sum_sq
+                .wrapping_sub(h0.sum_sq)
+                .wrapping_sub(lb.sum_sq.wrapping_sub(l0.sum_sq)),
             n_dx: len.saturating_sub(1) * rows,
-            sum_dx: self.span(DX, x0 + 1, x1),
+            sum_dx: d(hb.dx, h1.dx, lb.dx, l1.dx),
             n_dy: len * rows.saturating_sub(1),
-            sum_dy: self.span(DY, x0, x1),
+            sum_dy: d(hb.dy_in, h0.dy_in, lb.dy_in, l0.dy_in)
+                + d(hb.dy_link, h0.dy_link, fb.dy_link, f0.dy_link),
             n_dx2: len.saturating_sub(2) * rows,
-            sum_dx2: self.span(DX2, x0 + 2, x1),
+            sum_dx2: d(hb.dx2, h2.dx2, lb.dx2, l2.dx2),
         }
     }
 }
 
-/// The features of every cell of an image from running sums: per window a
-/// table of column sums over the window's rows, kept as prefix sums along
-/// the row and slid down the image (each image row enters and leaves each
-/// window once), so each cell's window sums come from two entries per
-/// quantity. The same integer sums as [`cell_features`], so the same
-/// features bit for bit, at a fraction of the cost (Cortex-M4:
-/// `segment.floor_model` in `firmware/README.md`). Fixed memory, about
-/// 9.7 KB: three tables for an image at most [`MAX_ROW_WIDTH`] wide.
+/// The features of every cell of an image from running sums: per row pair
+/// (image rows `2r - 1` and `2r`) a table of each quantity summed over all
+/// pairs so far and along the row, so that any window's sums are the
+/// differences of a few entries of two tables. Each image row is read
+/// twice (as a pair's row and as the row above the next pair), whatever
+/// the number of windows, and a map row adds one pair. The same integer
+/// sums as [`cell_features`], so the same features bit for bit, at a
+/// fraction of the cost (Cortex-M4: `segment.floor_model` in
+/// `firmware/README.md`). Fixed memory, about 23 KB: the tables of the
+/// largest window's pairs and one more, for an image at most
+/// [`MAX_ROW_WIDTH`] wide.
 pub struct RowFeatures {
-    tables: [WindowTable; WINDOWS.len()],
+    ring: [PairTable; RING],
 }
 
 impl RowFeatures {
     /// Empty tables.
     pub const fn new() -> Self {
         RowFeatures {
-            tables: [WindowTable::EMPTY; WINDOWS.len()],
+            ring: [[Column::ZERO; COLS]; RING],
+        }
+    }
+
+    /// The table of pair `r` (`r` may be below 0: an empty pair).
+    #[allow(clippy::indexing_slicing)] // slot() < RING, the ring's length
+    fn table(&self, r: isize) -> &PairTable {
+        &self.ring[slot(r)]
+    }
+
+    /// Adds the table of pair `r` (rows `2r - 1`, `2r`) of `image`, cut to
+    /// its first `w` columns, on the table of pair `r - 1`.
+    fn add_pair(&mut self, image: &ImageView<'_>, r: usize, w: usize) {
+        let row = |y: Option<usize>| y.and_then(|y| image.row(y)).and_then(|p| p.get(..w));
+        let above = row((2 * r).checked_sub(2));
+        let upper = row((2 * r).checked_sub(1));
+        let lower = row(Some(2 * r));
+        let (p, n) = (slot(r as isize - 1), slot(r as isize));
+        let Ok([prev, next]) = self.ring.get_disjoint_mut([p, n]) else {
+            return;
+        };
+        match (above, upper, lower) {
+            (Some(c), Some(a), Some(b)) => full_pair(prev, next, c, a, b),
+            _ => edge_pair(prev, next, above, upper, lower, w),
         }
     }
 
@@ -401,16 +426,32 @@ impl RowFeatures {
             return false;
         }
         *self = RowFeatures::new();
+        // The last pair with a row in the image.
+        let last = h / 2;
+        let mut added = 0;
         for cy in 0..h / CELL {
-            let py = cy * CELL + CELL / 2;
-            for (table, &half) in self.tables.iter_mut().zip(&WINDOWS) {
-                table.slide(image, py.saturating_sub(half), (py + half).min(h));
+            while added <= (cy + MAX_HALF / 2).min(last) {
+                self.add_pair(image, added, w);
+                added += 1;
             }
+            let py = cy * CELL + CELL / 2;
+            let windows = WINDOWS.map(|half| {
+                let first = cy as isize + 1 - (half / 2) as isize;
+                WindowRows {
+                    hi: self.table(((cy + half / 2).min(last)) as isize),
+                    lo: self.table(first - 1),
+                    first: self.table(first),
+                    rows: ((py + half).min(h) - py.saturating_sub(half)) as u32,
+                }
+            });
+            let [a, b, c] = &windows;
             for cx in 0..w / CELL {
                 let px = cx * CELL + CELL / 2;
-                let [a, b, c] = &self.tables;
-                let sums = [(a, WINDOWS[0]), (b, WINDOWS[1]), (c, WINDOWS[2])]
-                    .map(|(t, half)| t.sums(px.saturating_sub(half), (px + half).min(w)));
+                let sums = [
+                    a.sums::<{ WINDOWS[0] }>(px, w),
+                    b.sums::<{ WINDOWS[1] }>(px, w),
+                    c.sums::<{ WINDOWS[2] }>(px, w),
+                ];
                 f(cx, cy, features_from(&sums, cy, h));
             }
         }
@@ -475,6 +516,36 @@ mod tests {
             }));
             assert_eq!(seen, (w / CELL) * (h / CELL));
         }
+    }
+
+    #[test]
+    fn row_features_hold_the_largest_sums() {
+        // All 255 (the largest pixel sums) and a 0/255 checkerboard (the
+        // largest differences, every one 255) fill the 16-bit sums of the
+        // largest window to within 1 % of 2^16.
+        let (w, h) = (MAX_ROW_WIDTH, 40);
+        let flat = [255u8; MAX_ROW_WIDTH * 40];
+        let checker: [u8; MAX_ROW_WIDTH * 40] =
+            core::array::from_fn(|i| if (i % w + i / w) % 2 == 0 { 0 } else { 255 });
+        let mut seen = 0;
+        for px in [&flat, &checker] {
+            let view = ImageView::new(&px[..], w, h, w).unwrap();
+            let largest = window_sums(&view, 40, 10, WINDOWS[2]);
+            assert!(
+                largest.sum >= 65_000 || largest.sum_dy >= 61_000,
+                "{largest:?}"
+            );
+            assert!(RowFeatures::new().each_cell(&view, |cx, cy, f| {
+                let direct = cell_features(&view, cx, cy);
+                assert_eq!(
+                    f.map(f32::to_bits),
+                    direct.map(f32::to_bits),
+                    "cell ({cx}, {cy})"
+                );
+                seen += 1;
+            }));
+        }
+        assert_eq!(seen, 2 * (w / CELL) * (h / CELL));
     }
 
     #[test]

@@ -210,22 +210,34 @@ impl Segmenter for FloorModel {
         image: &ImageView<'_>,
         out: &'o mut [u8],
     ) -> Result<LabelView<'o>, SegmentError> {
+        self.segment_with(image, out, &mut RowFeatures::new())
+    }
+}
+
+impl FloorModel {
+    /// [`Segmenter::segment`] with the window sums' tables in `tables`
+    /// (`size_of::<RowFeatures>()`, about 23 KB: a `static` in firmware)
+    /// instead of on the stack. The same map.
+    pub fn segment_with<'o>(
+        &self,
+        image: &ImageView<'_>,
+        out: &'o mut [u8],
+        tables: &mut RowFeatures,
+    ) -> Result<LabelView<'o>, SegmentError> {
         let (w, h) = self.map_size(image.width(), image.height())?;
         let n = w.checked_mul(h).ok_or(SegmentError::UnsupportedSize)?;
         let map = out.get_mut(..n).ok_or(SegmentError::OutputTooSmall)?;
         // From running sums; cell by cell when the image is wider than the
         // tables (the same features either way).
-        let mut rows = RowFeatures::new();
-        let model = &*self;
-        let done = rows.each_cell(image, |cx, cy, f| {
+        let done = tables.each_cell(image, |cx, cy, f| {
             if let Some(slot) = map.get_mut(cy * w + cx) {
-                *slot = model.classify(&f);
+                *slot = self.classify(&f);
             }
         });
         if !done {
             for (cy, labels) in map.chunks_exact_mut(w).enumerate() {
                 for (cx, slot) in labels.iter_mut().enumerate() {
-                    *slot = model.classify(&cell_features(image, cx, cy));
+                    *slot = self.classify(&cell_features(image, cx, cy));
                 }
             }
         }
@@ -260,6 +272,31 @@ mod tests {
         }));
         // Cells past the map are left alone.
         assert_eq!(out[24..], [255u8; 6]);
+    }
+
+    #[test]
+    fn tables_passed_in_give_the_same_maps_as_tables_on_the_stack() {
+        // Two different images through one set of tables: each map equals
+        // the trait's (tables on the stack) and the per-cell features'.
+        let mut tables = RowFeatures::new();
+        let mut model = FloorModel::reference();
+        for seed in [3u32, 11] {
+            let mut s = seed;
+            let img: [u8; 40 * 30] = core::array::from_fn(|i| {
+                s ^= s << 13;
+                s ^= s >> 17;
+                s ^= s << 5;
+                ((s >> 24) as u8 / 3).saturating_add(if i % 40 < 20 { 0 } else { 90 })
+            });
+            let view = ImageView::packed(&img, 40, 30).unwrap();
+            let (mut a, mut b) = ([0u8; 300], [0u8; 300]);
+            model.segment_with(&view, &mut a, &mut tables).unwrap();
+            model.segment(&view, &mut b).unwrap();
+            assert_eq!(a, b);
+            for (i, &c) in a.iter().enumerate() {
+                assert_eq!(c, model.classify(&cell_features(&view, i % 20, i / 20)));
+            }
+        }
     }
 
     /// The scores as two dense layers: every hidden unit, ReLU'd, then
