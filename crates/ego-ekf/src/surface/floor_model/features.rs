@@ -79,11 +79,41 @@ fn window_sums(image: &ImageView<'_>, cx: usize, cy: usize, half: usize) -> Wind
     s
 }
 
-/// Ratio that is zero for an empty count.
-fn per(sum: u32, n: u32) -> f32 {
-    if n == 0 { 0.0 } else { sum as f32 / n as f32 }
+/// A window's pixel and difference counts as `f32` (exact: every count is
+/// below 2^24).
+#[derive(Clone, Copy, Debug)]
+struct Counts {
+    n: f32,
+    n_dx: f32,
+    n_dy: f32,
+    n_dx2: f32,
 }
 
+impl Counts {
+    fn of(s: &WindowSums) -> Self {
+        Counts {
+            n: s.n as f32,
+            n_dx: s.n_dx as f32,
+            n_dy: s.n_dy as f32,
+            n_dx2: s.n_dx2 as f32,
+        }
+    }
+
+    /// The counts of a window `len` columns wide and `rows` rows high.
+    fn window(len: u32, rows: u32) -> Self {
+        Counts::of(&WindowSums {
+            n: len * rows,
+            n_dx: len.saturating_sub(1) * rows,
+            n_dy: len * rows.saturating_sub(1),
+            n_dx2: len.saturating_sub(2) * rows,
+            ..WindowSums::default()
+        })
+    }
+
+    fn all_above_zero(&self) -> bool {
+        self.n > 0.0 && self.n_dx > 0.0 && self.n_dy > 0.0 && self.n_dx2 > 0.0
+    }
+}
 /// The features of map cell `(cx, cy)` (cell `CELL` px square) of `image`,
 /// each window summed pixel by pixel (see [`RowFeatures`] for the same
 /// features of a whole row of cells from running sums).
@@ -94,20 +124,40 @@ pub fn cell_features(image: &ImageView<'_>, cx: usize, cy: usize) -> [f32; FEATU
 
 /// The features of a cell of map row `cy` from its windows' sums.
 fn features_from(sums: &[WindowSums; WINDOWS.len()], cy: usize, height: usize) -> [f32; FEATURES] {
+    features_with::<false>(sums, &sums.each_ref().map(Counts::of), cy, height)
+}
+
+/// [`features_from`] with the windows' counts given; with `ABOVE_ZERO`
+/// every count is known to be above zero, else a ratio over a zero count
+/// is zero.
+#[inline(always)]
+fn features_with<const ABOVE_ZERO: bool>(
+    sums: &[WindowSums; WINDOWS.len()],
+    counts: &[Counts; WINDOWS.len()],
+    cy: usize,
+    height: usize,
+) -> [f32; FEATURES] {
+    let per = |sum: u32, n: f32| {
+        if !ABOVE_ZERO && n == 0.0 {
+            0.0
+        } else {
+            sum as f32 / n
+        }
+    };
     let mut f = [0.0f32; FEATURES];
     let mut means = [0.0f32; WINDOWS.len()];
-    for (k, s) in sums.iter().enumerate() {
-        let m = per(s.sum, s.n);
+    for (k, (s, c)) in sums.iter().zip(counts).enumerate() {
+        let m = per(s.sum, c.n);
         // Clamped by a compare: `f32::max` calls the software `fmaxf` on
         // a Cortex-M4 (the difference is never -0.0, so the bits agree).
-        let v = per(s.sum_sq, s.n) - m * m;
+        let v = per(s.sum_sq, c.n) - m * m;
         let var = if v > 0.0 { v } else { 0.0 };
         let norm = 1.0 / (m + 16.0);
         let out = [
-            per(s.sum_dx2, s.n_dx2) * norm,
+            per(s.sum_dx2, c.n_dx2) * norm,
             vslam_core::fsqrt::sqrtf(var) * norm,
-            per(s.sum_dx, s.n_dx) * norm,
-            per(s.sum_dy, s.n_dy) * norm,
+            per(s.sum_dx, c.n_dx) * norm,
+            per(s.sum_dy, c.n_dy) * norm,
         ];
         for (j, v) in out.into_iter().enumerate() {
             if let Some(slot) = f.get_mut(PER_WINDOW * k + j) {
@@ -445,6 +495,13 @@ impl RowFeatures {
                 }
             });
             let [a, b, c] = &windows;
+            // Away from the left and right borders every window is 2 * half
+            // columns wide: the same counts in every cell of the row.
+            let mut inner = [Counts::window(0, 0); WINDOWS.len()];
+            for ((c, half), window) in inner.iter_mut().zip(WINDOWS).zip(&windows) {
+                *c = Counts::window(2 * half as u32, window.rows);
+            }
+            let known = inner.iter().all(Counts::all_above_zero);
             for cx in 0..w / CELL {
                 let px = cx * CELL + CELL / 2;
                 let sums = [
@@ -452,7 +509,12 @@ impl RowFeatures {
                     b.sums::<{ WINDOWS[1] }>(px, w),
                     c.sums::<{ WINDOWS[2] }>(px, w),
                 ];
-                f(cx, cy, features_from(&sums, cy, h));
+                let features = if known && px >= MAX_HALF && px + MAX_HALF <= w {
+                    features_with::<true>(&sums, &inner, cy, h)
+                } else {
+                    features_from(&sums, cy, h)
+                };
+                f(cx, cy, features);
             }
         }
         true
