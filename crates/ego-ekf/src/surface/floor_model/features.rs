@@ -359,7 +359,7 @@ struct WindowRows<'a> {
 /// second, the second differences at the third) and one past its last.
 type Ends = (Column, Column, Column, Column);
 
-impl WindowRows<'_> {
+impl<'a> WindowRows<'a> {
     /// The sums over the window's rows and columns `px - HALF..px + HALF`,
     /// clipped to `0..w` (`px < w <= MAX_ROW_WIDTH`, `HALF >= 2`). Away
     /// from the left and right borders the window is `2 * HALF + 1` entries
@@ -388,6 +388,31 @@ impl WindowRows<'_> {
             (Some(hi), Some(lo), Some(first)) => self.sums_of(len, hi, lo, first),
             _ => WindowSums::default(),
         }
+    }
+
+    /// [`WindowRows::sums`] of the cells at `px`, `px + CELL`, ... while
+    /// their windows are inside the tables (the caller stops at the row's
+    /// right border): each table read at fixed offsets from one pointer.
+    #[inline(always)]
+    fn inside<const HALF: usize>(&self, px: usize) -> impl Iterator<Item = WindowSums> + '_ {
+        let x0 = px.saturating_sub(HALF);
+        let from = |t: &'a PairTable| {
+            t.get(x0..)
+                .unwrap_or(&[])
+                .windows(2 * HALF + 1)
+                .step_by(CELL)
+        };
+        let ends = |s: &[Column]| {
+            let (&[a0, a1, a2], _) = s.split_first_chunk::<3>()?;
+            Some((a0, a1, a2, *s.last()?))
+        };
+        from(self.hi)
+            .zip(from(self.lo))
+            .zip(from(self.first))
+            .map(move |((h, l), f)| match (ends(h), ends(l), ends(f)) {
+                (Some(h), Some(l), Some(f)) => self.sums_of(2 * HALF as u32, h, l, f),
+                _ => WindowSums::default(),
+            })
     }
 
     /// The sums of a window `len` columns wide from its tables' entries.
@@ -502,19 +527,38 @@ impl RowFeatures {
                 *c = Counts::window(2 * half as u32, window.rows);
             }
             let known = inner.iter().all(Counts::all_above_zero);
-            for cx in 0..w / CELL {
+            // Cells `first..last` have all their windows inside the row.
+            let cells = w / CELL;
+            let first = (MAX_HALF / CELL).min(cells);
+            let last = if known {
+                ((w.saturating_sub(CELL / 2 + MAX_HALF)) / CELL + 1).clamp(first, cells)
+            } else {
+                first
+            };
+            let border = |cx: usize| {
                 let px = cx * CELL + CELL / 2;
                 let sums = [
                     a.sums::<{ WINDOWS[0] }>(px, w),
                     b.sums::<{ WINDOWS[1] }>(px, w),
                     c.sums::<{ WINDOWS[2] }>(px, w),
                 ];
-                let features = if known && px >= MAX_HALF && px + MAX_HALF <= w {
-                    features_with::<true>(&sums, &inner, cy, h)
-                } else {
-                    features_from(&sums, cy, h)
-                };
-                f(cx, cy, features);
+                features_from(&sums, cy, h)
+            };
+            for cx in 0..first {
+                f(cx, cy, border(cx));
+            }
+            let px = first * CELL + CELL / 2;
+            let inside = a
+                .inside::<{ WINDOWS[0] }>(px)
+                .zip(b.inside::<{ WINDOWS[1] }>(px))
+                .zip(c.inside::<{ WINDOWS[2] }>(px));
+            let mut cx = first;
+            for ((sa, sb), sc) in inside.take(last - first) {
+                f(cx, cy, features_with::<true>(&[sa, sb, sc], &inner, cy, h));
+                cx += 1;
+            }
+            for cx in cx..cells {
+                f(cx, cy, border(cx));
             }
         }
         true
