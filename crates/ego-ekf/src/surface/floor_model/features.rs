@@ -297,16 +297,36 @@ impl Run {
 /// = `2r - 1`, `lower` = `2r`) are all in the image. Columns 0 and 1 add
 /// differences with a zero neighbour: no window's sum reads them.
 fn full_pair(prev: &PairTable, next: &mut PairTable, above: &[u8], upper: &[u8], lower: &[u8]) {
-    let mut run = Run::default();
-    let (mut u1, mut u2, mut l1, mut l2) = (0, 0, 0, 0);
+    // Two passes, each with few enough running sums for the registers:
+    // the pixels, squares and vertical differences, then the horizontal
+    // differences.
+    let (mut sum, mut sum_sq, mut dy_in, mut dy_link) = (0u32, 0u32, 0u32, 0u32);
     let pixels = above.iter().zip(upper).zip(lower);
     for ((n, p), ((&c, &a), &b)) in next.iter_mut().skip(1).zip(prev.iter().skip(1)).zip(pixels) {
         let (a, b, c) = (u32::from(a), u32::from(b), u32::from(c));
-        run.pixel(a, &mut u1, &mut u2);
-        run.pixel(b, &mut l1, &mut l2);
-        run.dy_in = run.dy_in.wrapping_add(a.abs_diff(b));
-        run.dy_link = run.dy_link.wrapping_add(c.abs_diff(a));
-        *n = run.on(p);
+        sum = sum.wrapping_add(a + b);
+        sum_sq = sum_sq.wrapping_add(a * a + b * b);
+        dy_in = dy_in.wrapping_add(a.abs_diff(b));
+        dy_link = dy_link.wrapping_add(c.abs_diff(a));
+        n.sum = p.sum.wrapping_add(sum as u16);
+        n.sum_sq = p.sum_sq.wrapping_add(sum_sq);
+        n.dy_in = p.dy_in.wrapping_add(dy_in as u16);
+        n.dy_link = p.dy_link.wrapping_add(dy_link as u16);
+    }
+    let (mut dx, mut dx2) = (0u32, 0u32);
+    let (mut u1, mut u2, mut l1, mut l2) = (0u32, 0u32, 0u32, 0u32);
+    for ((n, p), (&a, &b)) in next
+        .iter_mut()
+        .skip(1)
+        .zip(prev.iter().skip(1))
+        .zip(upper.iter().zip(lower))
+    {
+        let (a, b) = (u32::from(a), u32::from(b));
+        dx = dx.wrapping_add(a.abs_diff(u1) + b.abs_diff(l1));
+        dx2 = dx2.wrapping_add(a.abs_diff(u2) + b.abs_diff(l2));
+        (u2, u1, l2, l1) = (u1, a, l1, b);
+        n.dx = p.dx.wrapping_add(dx as u16);
+        n.dx2 = p.dx2.wrapping_add(dx2 as u16);
     }
 }
 
