@@ -106,7 +106,7 @@ impl MlpWeights {
             *xi = (fi - m) * s;
         }
         let mut out = [-0.0f32; CLASSES];
-        for ((row, b), ws) in self.w1.iter().zip(&self.b1).zip(by_unit) {
+        let mut unit = |row: &[f32; FEATURES], b: f32, ws: &[f32; CLASSES]| {
             let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
             // ReLU as a compare (`f32::max` is a call to the software
             // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
@@ -115,6 +115,18 @@ impl MlpWeights {
                     *o += w * a;
                 }
             }
+        };
+        // Four units per step (addresses at fixed offsets), then the rest.
+        let (rows, rows_rest) = self.w1.as_chunks::<4>();
+        let (biases, biases_rest) = self.b1.as_chunks::<4>();
+        let (outs, outs_rest) = by_unit.as_chunks::<4>();
+        for ((r, b), o) in rows.iter().zip(biases).zip(outs) {
+            for ((r, b), o) in r.iter().zip(b).zip(o) {
+                unit(r, *b, o);
+            }
+        }
+        for ((r, b), o) in rows_rest.iter().zip(biases_rest).zip(outs_rest) {
+            unit(r, *b, o);
         }
         for (o, b) in out.iter_mut().zip(&self.b2) {
             *o += b;
