@@ -381,31 +381,20 @@ type Ends = (Column, Column, Column, Column);
 
 impl<'a> WindowRows<'a> {
     /// The sums over the window's rows and columns `px - HALF..px + HALF`,
-    /// clipped to `0..w` (`px < w <= MAX_ROW_WIDTH`, `HALF >= 2`). Away
-    /// from the left and right borders the window is `2 * HALF + 1` entries
-    /// of each table, read at fixed offsets.
+    /// clipped to `0..w` (`px < w <= MAX_ROW_WIDTH`, `HALF >= 2`).
     #[inline(always)]
     fn sums<const HALF: usize>(&self, px: usize, w: usize) -> WindowSums {
-        let ends = if px >= HALF && px + HALF <= w {
-            let at = |t: &PairTable| {
-                let s = t.get(px - HALF..=px + HALF)?;
-                let (&[a0, a1, a2], _) = s.split_first_chunk::<3>()?;
-                Some((a0, a1, a2, *s.last()?))
+        let (x0, x1) = (px.saturating_sub(HALF), (px + HALF).min(w));
+        let at = |t: &PairTable| {
+            let (Some(&[a0, a1, a2]), Some(&b)) = (t.get(x0..x0 + 3), t.get(x1)) else {
+                return None;
             };
-            (at(self.hi), at(self.lo), at(self.first))
-        } else {
-            let (x0, x1) = (px.saturating_sub(HALF), (px + HALF).min(w));
-            let at = |t: &PairTable| {
-                let (Some(&[a0, a1, a2]), Some(&b)) = (t.get(x0..x0 + 3), t.get(x1)) else {
-                    return None;
-                };
-                Some((a0, a1, a2, b))
-            };
-            (at(self.hi), at(self.lo), at(self.first))
+            Some((a0, a1, a2, b))
         };
-        let len = ((px + HALF).min(w) - px.saturating_sub(HALF)) as u32;
-        match ends {
-            (Some(hi), Some(lo), Some(first)) => self.sums_of(len, hi, lo, first),
+        match (at(self.hi), at(self.lo), at(self.first)) {
+            (Some(hi), Some(lo), Some(first)) => {
+                self.sums_of(x1.saturating_sub(x0) as u32, hi, lo, first)
+            }
             _ => WindowSums::default(),
         }
     }
@@ -522,10 +511,10 @@ impl RowFeatures {
         }
         *self = RowFeatures::new();
         // The last pair with a row in the image.
-        let last = h / 2;
+        let last_pair = h / 2;
         let mut added = 0;
         for cy in 0..h / CELL {
-            while added <= (cy + MAX_HALF / 2).min(last) {
+            while added <= (cy + MAX_HALF / 2).min(last_pair) {
                 self.add_pair(image, added, w);
                 added += 1;
             }
@@ -533,7 +522,7 @@ impl RowFeatures {
             let windows = WINDOWS.map(|half| {
                 let first = cy as isize + 1 - (half / 2) as isize;
                 WindowRows {
-                    hi: self.table(((cy + half / 2).min(last)) as isize),
+                    hi: self.table(((cy + half / 2).min(last_pair)) as isize),
                     lo: self.table(first - 1),
                     first: self.table(first),
                     rows: ((py + half).min(h) - py.saturating_sub(half)) as u32,
@@ -547,13 +536,14 @@ impl RowFeatures {
                 *c = Counts::window(2 * half as u32, window.rows);
             }
             let known = inner.iter().all(Counts::all_above_zero);
-            // Cells `first..last` have all their windows inside the row.
+            // Cells `inner_start..inner_end` have all their windows inside
+            // the row.
             let cells = w / CELL;
-            let first = (MAX_HALF / CELL).min(cells);
-            let last = if known {
-                ((w.saturating_sub(CELL / 2 + MAX_HALF)) / CELL + 1).clamp(first, cells)
+            let inner_start = (MAX_HALF / CELL).min(cells);
+            let inner_end = if known {
+                ((w.saturating_sub(CELL / 2 + MAX_HALF)) / CELL + 1).clamp(inner_start, cells)
             } else {
-                first
+                inner_start
             };
             let border = |cx: usize| {
                 let px = cx * CELL + CELL / 2;
@@ -564,16 +554,16 @@ impl RowFeatures {
                 ];
                 features_from(&sums, cy, h)
             };
-            for cx in 0..first {
+            for cx in 0..inner_start {
                 f(cx, cy, border(cx));
             }
-            let px = first * CELL + CELL / 2;
+            let px = inner_start * CELL + CELL / 2;
             let inside = a
                 .inside::<{ WINDOWS[0] }>(px)
                 .zip(b.inside::<{ WINDOWS[1] }>(px))
                 .zip(c.inside::<{ WINDOWS[2] }>(px));
-            let mut cx = first;
-            for ((sa, sb), sc) in inside.take(last - first) {
+            let mut cx = inner_start;
+            for ((sa, sb), sc) in inside.take(inner_end - inner_start) {
                 f(cx, cy, features_with::<true>(&[sa, sb, sc], &inner, cy, h));
                 cx += 1;
             }
@@ -628,20 +618,26 @@ mod tests {
         ] {
             let px = image(w, h, seed);
             let view = ImageView::new(&px[..w * h], w, h, w).unwrap();
-            let mut rows = RowFeatures::new();
-            let mut seen = 0;
-            assert!(rows.each_cell(&view, |cx, cy, f| {
-                assert_eq!((cx, cy), (seen % (w / CELL), seen / (w / CELL)));
-                let direct = cell_features(&view, cx, cy);
-                assert_eq!(
-                    f.map(f32::to_bits),
-                    direct.map(f32::to_bits),
-                    "{w}x{h} cell ({cx}, {cy})"
-                );
-                seen += 1;
-            }));
-            assert_eq!(seen, (w / CELL) * (h / CELL));
+            assert_rows_equal_cells(&view);
         }
+    }
+
+    /// [`RowFeatures::each_cell`] visits every cell of `view` once, in row
+    /// order, with [`cell_features`]' features bit for bit.
+    fn assert_rows_equal_cells(view: &ImageView<'_>) {
+        let (w, h) = (view.width(), view.height());
+        let mut seen = 0;
+        assert!(RowFeatures::new().each_cell(view, |cx, cy, f| {
+            assert_eq!((cx, cy), (seen % (w / CELL), seen / (w / CELL)));
+            let direct = cell_features(view, cx, cy);
+            assert_eq!(
+                f.map(f32::to_bits),
+                direct.map(f32::to_bits),
+                "{w}x{h} cell ({cx}, {cy})"
+            );
+            seen += 1;
+        }));
+        assert_eq!(seen, (w / CELL) * (h / CELL));
     }
 
     #[test]
@@ -653,7 +649,6 @@ mod tests {
         let flat = [255u8; MAX_ROW_WIDTH * 40];
         let checker: [u8; MAX_ROW_WIDTH * 40] =
             core::array::from_fn(|i| if (i % w + i / w) % 2 == 0 { 0 } else { 255 });
-        let mut seen = 0;
         for px in [&flat, &checker] {
             let view = ImageView::new(&px[..], w, h, w).unwrap();
             let largest = window_sums(&view, 40, 10, WINDOWS[2]);
@@ -661,17 +656,8 @@ mod tests {
                 largest.sum >= 65_000 || largest.sum_dy >= 61_000,
                 "{largest:?}"
             );
-            assert!(RowFeatures::new().each_cell(&view, |cx, cy, f| {
-                let direct = cell_features(&view, cx, cy);
-                assert_eq!(
-                    f.map(f32::to_bits),
-                    direct.map(f32::to_bits),
-                    "cell ({cx}, {cy})"
-                );
-                seen += 1;
-            }));
+            assert_rows_equal_cells(&view);
         }
-        assert_eq!(seen, 2 * (w / CELL) * (h / CELL));
     }
 
     #[test]
