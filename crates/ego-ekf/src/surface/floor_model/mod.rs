@@ -13,7 +13,9 @@
 //! obstacles), 1 wall, 2 wood, 3 carpet, 4 tile, 5 concrete, 6 threshold
 //! strip; [`FloorModel::class_config`] gives their roles. The map has half
 //! the image's resolution. No allocation: the model is a few kilobytes of
-//! weights and the caller owns the map buffer.
+//! weights, the caller owns the map buffer, and the window sums' tables
+//! ([`RowFeatures`], about 23 KB) are on the stack of
+//! [`Segmenter::segment`] or the caller's with [`FloorModel::segment_with`].
 
 pub mod features;
 pub mod weights;
