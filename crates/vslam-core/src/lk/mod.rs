@@ -60,6 +60,7 @@
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
+mod columns;
 mod config;
 mod gain;
 pub mod sample;

@@ -7,8 +7,15 @@
 use crate::geometry::Vec2;
 use crate::image::ImageView;
 
+use super::columns;
 use super::config::MAX_WINDOW;
 use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
+
+/// Whether [`Template::mismatch`] takes the column kernels (`columns`) for
+/// the windows they serve: on Arm cores without NEON (Cortex-M), which have
+/// no vector unit for the row kernels' lanes; elsewhere the row kernels
+/// vectorise. Both give the same bits.
+const COLUMN_ORDER: bool = cfg!(all(target_arch = "arm", not(target_feature = "neon")));
 
 /// Width of the template rows the gradients fill (`MAX_WINDOW` rounded up to lanes).
 pub(super) const TPL: usize = MAX_WINDOW.div_ceil(LANES) * LANES;
@@ -56,6 +63,9 @@ pub(super) struct Template<'r> {
     pub(super) gy: &'r mut [TplRow],
     /// 1 for the `n` window columns, 0 for the padding.
     pub(super) mask: TplRow,
+    /// Windows of at most [`columns::MAX_COLUMNS`] columns take the column
+    /// kernels ([`COLUMN_ORDER`]; the tests switch it).
+    pub(super) column_order: bool,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
@@ -93,6 +103,7 @@ impl<'r> Template<'r> {
             gx,
             gy,
             mask: [0.0; TPL],
+            column_order: COLUMN_ORDER,
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; 3],
             src: [0; SRC],
@@ -121,20 +132,30 @@ impl<'r> Template<'r> {
         if n > MAX_WINDOW || n > self.t.len() {
             return Err(TemplateFault::OutOfBounds);
         }
-        self.n = n;
-        for (k, v) in self.mask.iter_mut().enumerate() {
-            *v = if k < n { 1.0 } else { 0.0 };
+        if self.n != n {
+            self.n = n;
+            for (k, v) in self.mask.iter_mut().enumerate() {
+                *v = if k < n { 1.0 } else { 0.0 };
+            }
         }
+        let by_columns = if self.column_order {
+            self.sample_by_columns(image, &src)
+        } else {
+            None
+        };
         // (patch chunks, window chunks) for n = 3..=31, odd.
-        let [gxx, gxy, gyy] = match (window::chunks(m), window::chunks(n)) {
-            (1, _) => self.sample::<1, 1>(image, &src),
-            (2, 1) => self.sample::<2, 1>(image, &src),
-            (2, _) => self.sample::<2, 2>(image, &src),
-            (3, 2) => self.sample::<3, 2>(image, &src),
-            (3, _) => self.sample::<3, 3>(image, &src),
-            (4, 3) => self.sample::<4, 3>(image, &src),
-            (4, _) => self.sample::<4, 4>(image, &src),
-            _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
+        let [gxx, gxy, gyy] = match by_columns {
+            Some(sums) => sums.map(|lanes| lanes.iter().sum::<f32>()),
+            None => match (window::chunks(m), window::chunks(n)) {
+                (1, _) => self.sample::<1, 1>(image, &src),
+                (2, 1) => self.sample::<2, 1>(image, &src),
+                (2, _) => self.sample::<2, 2>(image, &src),
+                (3, 2) => self.sample::<3, 2>(image, &src),
+                (3, _) => self.sample::<3, 3>(image, &src),
+                (4, 3) => self.sample::<4, 3>(image, &src),
+                (4, _) => self.sample::<4, 4>(image, &src),
+                _ => self.sample::<MAX_CHUNKS, 4>(image, &src),
+            },
         };
         let area = (n * n) as f32;
         let half_diff = 0.5 * (gxx - gyy);
@@ -146,6 +167,25 @@ impl<'r> Template<'r> {
         }
         self.g_inv = [gyy / det, -gxy / det, gxx / det];
         Ok(())
+    }
+
+    /// The template and the lane sums of `G` by the column kernels, the
+    /// same bits as [`Template::sample`] in the window's lanes: for windows
+    /// of at most [`columns::MAX_COLUMNS`] columns, `None` for the others.
+    fn sample_by_columns(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> Option<columns::Sums> {
+        let mut sums = [[0.0; LANES]; 3];
+        let rows = [&mut *self.t, &mut *self.gx, &mut *self.gy];
+        let done = match self.n {
+            3 => columns::template::<3>(src, image, rows, &mut sums),
+            5 => columns::template::<5>(src, image, rows, &mut sums),
+            7 => columns::template::<7>(src, image, rows, &mut sums),
+            _ => false,
+        };
+        done.then_some(sums)
     }
 
     /// Samples the `n + 2` square patch (`P` chunks wide) row by row into
@@ -216,15 +256,65 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<Mismatch> {
-        let [sx, sy, sa] = if with_abs {
-            self.sweep(image, c, clamp, &Plain::<true>)?
+        let by_columns = if self.column_order {
+            self.column_sums(image, c, clamp, with_abs)
         } else {
-            self.sweep(image, c, clamp, &Plain::<false>)?
+            None
+        };
+        let [sx, sy, sa] = match by_columns {
+            Some(sums) => sums,
+            None => self.row_sums(image, c, clamp, with_abs)?,
         };
         Some(Mismatch {
             b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
             abs: sa.iter().sum::<f32>(),
         })
+    }
+
+    /// The lane sums of [`Template::mismatch`] by the row kernels (any
+    /// window); `None` when the window is outside.
+    pub(super) fn row_sums(
+        &mut self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+    ) -> Option<columns::Sums> {
+        if with_abs {
+            self.sweep(image, c, clamp, &Plain::<true>)
+        } else {
+            self.sweep(image, c, clamp, &Plain::<false>)
+        }
+    }
+
+    /// The lane sums of [`Template::mismatch`] by the column kernels, the
+    /// same bits as [`Template::row_sums`]: for windows of at most
+    /// [`columns::MAX_COLUMNS`] columns, `None` for the others and when the
+    /// window is outside.
+    pub(super) fn column_sums(
+        &self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+    ) -> Option<columns::Sums> {
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let clamp = clamp && inside(image, c);
+        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        let (rows, mask) = ([&*self.t, &*self.gx, &*self.gy], &self.mask);
+        let mut sums = [[0.0; LANES]; 3];
+        let s = &mut sums;
+        let done = match (n, with_abs) {
+            (3, false) => columns::mismatch::<3, false>(&src, image, rows, mask, s),
+            (3, true) => columns::mismatch::<3, true>(&src, image, rows, mask, s),
+            (5, false) => columns::mismatch::<5, false>(&src, image, rows, mask, s),
+            (5, true) => columns::mismatch::<5, true>(&src, image, rows, mask, s),
+            (7, false) => columns::mismatch::<7, false>(&src, image, rows, mask, s),
+            (7, true) => columns::mismatch::<7, true>(&src, image, rows, mask, s),
+            _ => false,
+        };
+        done.then_some(sums)
     }
 
     /// One pass of `kernel` over the window centred on `c` in `image`: its
