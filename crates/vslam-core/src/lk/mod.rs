@@ -56,6 +56,8 @@
 //!
 //! - [`sample`]: bilinear window sampling (single windows and pixels),
 //! - `window`: the row machinery of the tracker's inner loops,
+//! - `columns`: the same sums walked a column at a time, for windows of at
+//!   most seven columns on Arm cores without NEON (Cortex-M), bit for bit,
 //! - `gain`: the gain-bias model's moments, kernel and normalised residual,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
