@@ -27,7 +27,7 @@
 
 use core::fmt::{self, Write};
 
-use traction::ego_ekf::surface::floor_model::RowFeatures;
+use traction::ego_ekf::surface::floor_model::{RowFeatures, cell_features};
 use traction::ego_ekf::{EgoEkf, ImuPlausibility};
 use traction::estimator::{EstimatorConfig, EstimatorError, EstimatorWith, Part, Probe};
 use traction::frontend::{FrontEndBuffers, FrontEndConfig};
@@ -548,15 +548,30 @@ impl FrontEndRun {
     }
 }
 
-/// Label maps made by [`run_segment`]: how many, and the cells of each
-/// class summed over them.
+/// Label maps made by [`run_segment`]: how many, the cells of each class
+/// summed over them, a hash of every label, and the check of the model's
+/// scores against the reference ones.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SegmentRun {
     /// Frames labelled.
     pub maps: u32,
     /// Cells per class id, over every map.
     pub classes: [u32; FLOOR_CLASSES],
+    /// FNV-1a (32 bits) of every map's labels in order: the host and the
+    /// firmware label every cell alike only if these agree.
+    pub map_hash: u32,
+    /// Feature vectors whose scores were checked (every cell of every
+    /// frame, features computed pixel by pixel, and seeded draws around
+    /// the training statistics).
+    pub scores_checked: u32,
+    /// Of those, how many had scores from the model in use
+    /// (`FloorModel::table`, on Cortex-M the `VLDM` kernel) whose bits
+    /// differ from the reference `MlpWeights::scores`.
+    pub score_mismatches: u32,
 }
+
+/// Seeded feature draws of [`run_segment`]'s score check.
+const SCORE_DRAWS: u32 = 2_000;
 
 /// Class ids of the reference floor model.
 pub const FLOOR_CLASSES: usize = traction::ego_ekf::surface::floor_model::CLASSES;
@@ -582,7 +597,10 @@ pub fn run_segment(
         .get(..w.saturating_mul(hh))
         .map(<[u8]>::len)
         .ok_or(RunError::Config("segmentation map buffer"))?;
-    let mut run = SegmentRun::default();
+    let mut run = SegmentRun {
+        map_hash: FNV_OFFSET,
+        ..SegmentRun::default()
+    };
     for (_, pixels) in frames {
         let view = ImageView::new(pixels, h.width, h.height, h.width)
             .map_err(|_| RunError::Format(FormatError::Truncated))?;
@@ -597,9 +615,56 @@ pub fn run_segment(
             if let Some(n) = run.classes.get_mut(usize::from(c)) {
                 *n += 1;
             }
+            run.map_hash = (run.map_hash ^ u32::from(c)).wrapping_mul(FNV_PRIME);
+        }
+        // Outside the measured call: every cell's scores against the
+        // reference's.
+        for cy in 0..hh {
+            for cx in 0..w {
+                run.check_scores(&model, &cell_features(&view, cx, cy));
+            }
         }
     }
+    // Draws around the training statistics (xorshift32), so that hidden
+    // units switch on and off in many patterns.
+    let weights = *model.weights();
+    let mut s = 0x2545_f491u32;
+    for _ in 0..SCORE_DRAWS {
+        let mut f = [0.0f32; FLOOR_FEATURES];
+        for (fi, (m, sc)) in f.iter_mut().zip(weights.mean.iter().zip(&weights.scale)) {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            let u = (s >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0;
+            *fi = m + 3.0 * u / sc;
+        }
+        run.check_scores(&model, &f);
+    }
     Ok(run)
+}
+
+/// The FNV-1a offset basis and prime (32 bits).
+const FNV_OFFSET: u32 = 0x811c_9dc5;
+const FNV_PRIME: u32 = 0x0100_0193;
+
+/// Features of the reference floor model.
+const FLOOR_FEATURES: usize = traction::ego_ekf::surface::floor_model::FEATURES;
+
+impl SegmentRun {
+    /// Counts `f`, and a mismatch if the model's scores differ in any bit
+    /// from the reference's.
+    fn check_scores(
+        &mut self,
+        model: &traction::ego_ekf::surface::FloorModel,
+        f: &[f32; FLOOR_FEATURES],
+    ) {
+        let used = model.table().scores(f);
+        let reference = model.weights().scores(f);
+        self.scores_checked += 1;
+        if used.map(f32::to_bits) != reference.map(f32::to_bits) {
+            self.score_mismatches += 1;
+        }
+    }
 }
 
 /// Raw flow frames tracked by [`run_flow_frames`]: pairs, how they ended,
@@ -693,6 +758,14 @@ impl SegmentRun {
             *slot = Value::N(n);
         }
         f("segment.classes", &v);
+        f("segment.map_hash", &[Value::N(self.map_hash)]);
+        f(
+            "segment.scores_checked",
+            &[
+                Value::N(self.scores_checked),
+                Value::N(self.score_mismatches),
+            ],
+        );
     }
 
     /// Writes one line `result NAME V...` per quantity.

@@ -283,6 +283,13 @@ fn host_loop_runs_the_sample_data() {
     let seg = &host.segment;
     assert_eq!(seg.maps, 3);
     assert_eq!(seg.classes.iter().sum::<u32>(), 3 * 80 * 60);
+    // Every cell's features and 2,000 draws, each with the reference's
+    // scores bit for bit (compared with the firmware's line below: its
+    // scores come from the Cortex-M kernel).
+    assert_eq!(
+        (seg.scores_checked, seg.score_mismatches),
+        (3 * 80 * 60 + 2_000, 0)
+    );
     // Every raw flow frame after the first makes a pair, most of them with
     // features (3 of the 10 on this floor are refused as textureless): the
     // floor moves backwards in the image, a few pixels per 10 ms report

@@ -17,7 +17,10 @@
 //! ([`RowFeatures`], about 23 KB) are on the stack of
 //! [`Segmenter::segment`] or the caller's with [`FloorModel::segment_with`].
 
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+mod arm;
 pub mod features;
+pub mod table;
 pub mod weights;
 
 use vslam_core::image::{ImageView, LabelView};
@@ -25,6 +28,7 @@ use vslam_core::segment::{SegmentError, Segmenter};
 
 use super::classes::{ClassConfig, SurfaceKind};
 pub use features::{CELL, FEATURES, MAX_ROW_WIDTH, RowFeatures, cell_features};
+pub use table::MlpTable;
 
 /// Hidden units of the perceptron.
 pub const HIDDEN: usize = 24;
@@ -73,62 +77,21 @@ impl MlpWeights {
     /// Class scores (logits) for one feature vector. Each class sums its
     /// hidden units' contributions in unit order, then adds its bias; a unit
     /// the ReLU holds at zero adds nothing and is skipped (a score that
-    /// would be a sum of zeros may come out `-0.0` instead of `+0.0`).
+    /// would be a sum of zeros may come out `-0.0` instead of `+0.0`). The
+    /// reference for [`MlpTable::scores`], which [`FloorModel`] uses.
     pub fn scores(&self, f: &[f32; FEATURES]) -> [f32; CLASSES] {
-        self.scores_by_unit(&self.w2_by_unit(), f)
-    }
-
-    /// The output layer's weights by hidden unit: `[j][k]` is `w2[k][j]`.
-    #[allow(clippy::indexing_slicing)] // j < HIDDEN, k < CLASSES: the arrays' own lengths
-    pub const fn w2_by_unit(&self) -> [[f32; CLASSES]; HIDDEN] {
-        let mut t = [[0.0f32; CLASSES]; HIDDEN];
-        let mut j = 0;
-        while j < HIDDEN {
-            let mut k = 0;
-            while k < CLASSES {
-                t[j][k] = self.w2[k][j];
-                k += 1;
-            }
-            j += 1;
-        }
-        t
-    }
-
-    /// [`MlpWeights::scores`] with the output layer already by hidden unit
-    /// (`by_unit` from [`MlpWeights::w2_by_unit`], built once by
-    /// [`FloorModel`]), so an active unit's seven weights are read from one
-    /// row.
-    pub fn scores_by_unit(
-        &self,
-        by_unit: &[[f32; CLASSES]; HIDDEN],
-        f: &[f32; FEATURES],
-    ) -> [f32; CLASSES] {
         let mut x = [0.0f32; FEATURES];
         for ((xi, fi), (m, s)) in x.iter_mut().zip(f).zip(self.mean.iter().zip(&self.scale)) {
             *xi = (fi - m) * s;
         }
         let mut out = [-0.0f32; CLASSES];
-        let mut unit = |row: &[f32; FEATURES], b: f32, ws: &[f32; CLASSES]| {
+        for (j, (row, b)) in self.w1.iter().zip(&self.b1).enumerate() {
             let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
-            // ReLU as a compare (`f32::max` is a call to the software
-            // `fmaxf` on a Cortex-M4, which has no `VMAXNM`).
             if a > 0.0 {
-                for (o, w) in out.iter_mut().zip(ws) {
-                    *o += w * a;
+                for (o, w2) in out.iter_mut().zip(&self.w2) {
+                    *o += w2.get(j).copied().unwrap_or(0.0) * a;
                 }
             }
-        };
-        // Four units per step (addresses at fixed offsets), then the rest.
-        let (rows, rows_rest) = self.w1.as_chunks::<4>();
-        let (biases, biases_rest) = self.b1.as_chunks::<4>();
-        let (outs, outs_rest) = by_unit.as_chunks::<4>();
-        for ((r, b), o) in rows.iter().zip(biases).zip(outs) {
-            for ((r, b), o) in r.iter().zip(b).zip(o) {
-                unit(r, *b, o);
-            }
-        }
-        for ((r, b), o) in rows_rest.iter().zip(biases_rest).zip(outs_rest) {
-            unit(r, *b, o);
         }
         for (o, b) in out.iter_mut().zip(&self.b2) {
             *o += b;
@@ -159,8 +122,8 @@ fn best_class(scores: [f32; CLASSES]) -> u8 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FloorModel {
     weights: MlpWeights,
-    /// `weights.w2` by hidden unit ([`MlpWeights::w2_by_unit`]).
-    w2_by_unit: [[f32; CLASSES]; HIDDEN],
+    /// `weights` in the order one cell's scores read them.
+    table: MlpTable,
 }
 
 impl Default for FloorModel {
@@ -178,7 +141,7 @@ impl FloorModel {
     /// The model with other weights (a training run evaluating its own).
     pub const fn with_weights(weights: MlpWeights) -> Self {
         FloorModel {
-            w2_by_unit: weights.w2_by_unit(),
+            table: MlpTable::new(&weights),
             weights,
         }
     }
@@ -188,10 +151,15 @@ impl FloorModel {
         &self.weights
     }
 
-    /// The class id of one cell's features: [`MlpWeights::classify`], bit
-    /// for bit, with the output layer read by hidden unit.
+    /// The class id of one cell's features: [`MlpWeights::classify`], the
+    /// scores from [`MlpTable::scores`].
     pub fn classify(&self, f: &[f32; FEATURES]) -> u8 {
-        best_class(self.weights.scores_by_unit(&self.w2_by_unit, f))
+        best_class(self.table.scores(f))
+    }
+
+    /// The weights laid out for one pass per cell.
+    pub fn table(&self) -> &MlpTable {
+        &self.table
     }
 
     /// What each class id means: 1 not ground, 2-5 the four floors, 6 a
@@ -333,8 +301,12 @@ mod tests {
         // sign of a zero, and so the same class, on every draw.
         let m = MlpWeights::REFERENCE;
         let model = FloorModel::reference();
-        let by_unit_weights = m.w2_by_unit();
-        assert_eq!(by_unit_weights[3][5].to_bits(), m.w2[5][3].to_bits());
+        let table = MlpTable::new(&m);
+        assert_eq!(
+            table.units[3][FEATURES + 1 + 5].to_bits(),
+            m.w2[5][3].to_bits()
+        );
+        assert_eq!(table.units[3][FEATURES].to_bits(), m.b1[3].to_bits());
         let mut s = 0x2545_f491u32;
         let mut uniform = || {
             s ^= s << 13;
@@ -348,8 +320,10 @@ mod tests {
                 core::array::from_fn(|i| m.mean[i] + 3.0 * uniform() / m.scale[i]);
             let dense = dense_scores(&m, &f);
             let sparse = m.scores(&f);
-            let by_unit = m.scores_by_unit(&by_unit_weights, &f);
-            assert_eq!(by_unit.map(f32::to_bits), sparse.map(f32::to_bits));
+            let by_table = table.scores(&f);
+            assert_eq!(by_table.map(f32::to_bits), sparse.map(f32::to_bits));
+            let portable = table.scores_portable(&f);
+            assert_eq!(portable.map(f32::to_bits), sparse.map(f32::to_bits));
             assert_eq!(model.classify(&f), m.classify(&f));
             for (a, b) in dense.iter().zip(&sparse) {
                 assert!(
