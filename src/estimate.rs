@@ -111,6 +111,18 @@ const SUPPORT: [usize; 5] = [P, TH, CL, CR, RB];
 /// Number of supporting columns.
 const NS: usize = 15;
 
+// Each supporting state's three columns lie inside the error state, and
+// the blocks fill the `NS` columns.
+#[allow(clippy::indexing_slicing)] // i < SUPPORT.len(), at compile time
+const _: () = {
+    assert!(NS == 3 * SUPPORT.len());
+    let mut i = 0;
+    while i < SUPPORT.len() {
+        assert!(SUPPORT[i] + 3 <= ego_ekf::state::DIM);
+        i += 1;
+    }
+};
+
 /// `[v]x`, the cross-product matrix.
 fn skew(v: &Vec3) -> Matrix3<f32> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
@@ -148,13 +160,13 @@ pub fn estimate_of(ekf: &EgoEkf) -> Option<Estimate> {
     let q_wb = x.q_wb * x.q_rb.inverse();
 
     let p = ekf.covariance();
-    let cols = || SUPPORT.iter().flat_map(|&s| [s, s + 1, s + 2]).enumerate();
+    // The 3x3 blocks of the supporting states, a block at a time (every
+    // block lies inside `P`: checked at compile time below).
     let mut sub = SMatrix::<f32, NS, NS>::zeros();
-    for (r, i) in cols() {
-        for (c, k) in cols() {
-            if let (Some(dst), Some(v)) = (sub.get_mut((r, c)), p.get((i, k))) {
-                *dst = *v;
-            }
+    for (bc, &c) in SUPPORT.iter().enumerate() {
+        for (br, &r) in SUPPORT.iter().enumerate() {
+            sub.fixed_view_mut::<3, 3>(3 * br, 3 * bc)
+                .copy_from(&p.fixed_view::<3, 3>(r, c));
         }
     }
     let j = jacobian(&r_wi, &m);
