@@ -26,6 +26,13 @@ use super::{CLASSES, FEATURES, HIDDEN};
 /// The shape the code below is written for.
 const SHAPE: bool = FEATURES == 14 && CLASSES == 7 && UNIT == 22;
 
+// The table is its floats back to back, as the block walks it.
+const _: () = assert!(
+    core::mem::size_of::<MlpTable>()
+        == 4 * (2 * FEATURES + CLASSES + HIDDEN * UNIT + CLASSES)
+        && core::mem::align_of::<MlpTable>() == 4
+);
+
 /// [`MlpTable::scores`] by the `VLDM` kernel; `None` for a model of another
 /// shape than [`SHAPE`]. Out of line: the compiler sizes an `asm!` block by
 /// its lines, not by what `.rept` makes of them, so branches placed across
