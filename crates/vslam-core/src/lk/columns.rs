@@ -48,7 +48,8 @@ struct Source<'a, 'i> {
     src: &'a SourceRows,
     image: &'a ImageView<'i>,
     inside: Option<(&'i [u8], usize, usize)>,
-    buf: [u8; SRC],
+    /// The border rows' buffer, zeroed only when a row needs it.
+    buf: Option<[u8; SRC]>,
 }
 
 impl<'a, 'i> Source<'a, 'i> {
@@ -57,7 +58,24 @@ impl<'a, 'i> Source<'a, 'i> {
             src,
             image,
             inside: src.inside_rows(image),
-            buf: [0; SRC],
+            buf: None,
+        }
+    }
+
+    /// The first `need` bytes of source row `i` (fewer when the image
+    /// has no such row).
+    #[inline(always)]
+    fn bytes(&mut self, i: usize, need: usize) -> &[u8] {
+        let inside = self.inside.and_then(|(data, start, stride)| {
+            let at = stride.checked_mul(i)?.checked_add(start)?;
+            data.get(at..)?.get(..need)
+        });
+        match inside {
+            Some(row) => row,
+            None => {
+                let buf = self.buf.get_or_insert([0; SRC]);
+                self.src.row(self.image, i, need, buf)
+            }
         }
     }
 
@@ -67,20 +85,27 @@ impl<'a, 'i> Source<'a, 'i> {
     #[inline(always)]
     fn horizontal(&mut self, i: usize, w: usize, out: &mut [f32; PATCH]) {
         let ax = self.src.ax;
-        let need = w.saturating_add(1);
-        let inside = self.inside.and_then(|(data, start, stride)| {
-            let at = stride.checked_mul(i)?.checked_add(start)?;
-            data.get(at..)?.get(..need)
-        });
-        let row = match inside {
-            Some(row) => row,
-            None => self.src.row(self.image, i, need, &mut self.buf),
-        };
+        let row = self.bytes(i, w.saturating_add(1));
         let pairs = row.iter().zip(row.iter().skip(1));
         for (o, (&a, &b)) in out.iter_mut().zip(pairs).take(w) {
             let (a, b) = (f32::from(a), f32::from(b));
             *o = a + ax * (b - a);
         }
+    }
+
+    /// [`Source::horizontal`] of `W` samples as a new row (zeros past a
+    /// short row), with no zeroing beforehand.
+    #[inline(always)]
+    fn horizontal_row<const W: usize>(&mut self, i: usize) -> [f32; W] {
+        let ax = self.src.ax;
+        let row = self.bytes(i, W + 1);
+        core::array::from_fn(|x| match (row.get(x), row.get(x + 1)) {
+            (Some(&a), Some(&b)) => {
+                let (a, b) = (f32::from(a), f32::from(b));
+                a + ax * (b - a)
+            }
+            _ => 0.0,
+        })
     }
 }
 
@@ -200,34 +225,37 @@ pub(super) fn mismatch<const N: usize, const ABS: bool>(
     // The N + 1 source rows interpolated horizontally; the vertical blend
     // follows per sample (`J = h0 + ay (h1 - h0)`).
     let mut source = Source::new(src, image);
-    let mut h = [[0.0f32; PATCH]; LANES];
-    for (i, out) in h.iter_mut().enumerate().take(N + 1) {
-        source.horizontal(i, N, out);
-    }
+    let h: [[f32; N]; LANES] = core::array::from_fn(|i| {
+        if i <= N {
+            source.horizontal_row::<N>(i)
+        } else {
+            [0.0; N]
+        }
+    });
     let ay = src.ay;
     let [first, below @ ..] = &h;
-    *sums = [[0.0f32; LANES]; 3];
+    // Every lane written: the window's `N`, then `+0.0` in the rest (what
+    // the row kernels leave there).
     let [sx, sy, sa] = sums;
     let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
-    for (k, ((sx, sy), sa)) in lanes.enumerate().take(N) {
-        let (Some(&m), Some(&top)) = (mask.get(k), first.get(k)) else {
-            break;
-        };
+    for (k, ((sx, sy), sa)) in lanes.enumerate() {
         let (mut x, mut y, mut s) = (0.0f32, 0.0f32, 0.0f32);
-        let mut h0 = top;
-        for (((t, gx), gy), h) in t.iter().zip(gx).zip(gy).zip(below) {
-            let (Some(&t), Some(&gx), Some(&gy), Some(&h1)) =
-                (t.get(k), gx.get(k), gy.get(k), h.get(k))
-            else {
-                break;
-            };
-            let d = t - (h0 + ay * (h1 - h0));
-            x += d * gx;
-            y += d * gy;
-            if ABS {
-                s += d.abs() * m;
+        if let (true, Some(&m), Some(&top)) = (k < N, mask.get(k), first.get(k)) {
+            let mut h0 = top;
+            for (((t, gx), gy), h) in t.iter().zip(gx).zip(gy).zip(below) {
+                let (Some(&t), Some(&gx), Some(&gy), Some(&h1)) =
+                    (t.get(k), gx.get(k), gy.get(k), h.get(k))
+                else {
+                    break;
+                };
+                let d = t - (h0 + ay * (h1 - h0));
+                x += d * gx;
+                y += d * gy;
+                if ABS {
+                    s += d.abs() * m;
+                }
+                h0 = h1;
             }
-            h0 = h1;
         }
         (*sx, *sy, *sa) = (x, y, s);
     }

@@ -256,15 +256,15 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<Mismatch> {
-        let by_columns = if self.column_order {
-            self.column_sums(image, c, clamp, with_abs)
-        } else {
-            None
-        };
-        let [sx, sy, sa] = match by_columns {
-            Some(sums) => sums,
-            None => self.row_sums(image, c, clamp, with_abs)?,
-        };
+        // One array for either kernel's lane sums (a column kernel writes
+        // every lane; none goes through a returned copy).
+        let mut sums: columns::Sums = [[0.0; LANES]; 3];
+        let by_columns =
+            self.column_order && self.column_sums_into(image, c, clamp, with_abs, &mut sums);
+        if !by_columns {
+            sums = self.row_sums(image, c, clamp, with_abs)?;
+        }
+        let [sx, sy, sa] = &sums;
         Some(Mismatch {
             b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
             abs: sa.iter().sum::<f32>(),
@@ -291,6 +291,7 @@ impl<'r> Template<'r> {
     /// same bits as [`Template::row_sums`]: for windows of at most
     /// [`columns::MAX_COLUMNS`] columns, `None` for the others and when the
     /// window is outside.
+    #[cfg(test)]
     pub(super) fn column_sums(
         &self,
         image: &ImageView<'_>,
@@ -298,14 +299,30 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<columns::Sums> {
+        let mut sums = [[f32::NAN; LANES]; 3];
+        self.column_sums_into(image, c, clamp, with_abs, &mut sums)
+            .then_some(sums)
+    }
+
+    /// [`Template::column_sums`] into `sums` (every lane written); `false`
+    /// (and `sums` left alone) for a window the column kernels do not serve
+    /// or one outside.
+    fn column_sums_into(
+        &self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+        s: &mut columns::Sums,
+    ) -> bool {
         let n = self.n;
         let half = (n / 2) as f32;
         let clamp = clamp && inside(image, c);
-        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        let Some(src) = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp) else {
+            return false;
+        };
         let (rows, mask) = ([&*self.t, &*self.gx, &*self.gy], &self.mask);
-        let mut sums = [[0.0; LANES]; 3];
-        let s = &mut sums;
-        let done = match (n, with_abs) {
+        match (n, with_abs) {
             (3, false) => columns::mismatch::<3, false>(&src, image, rows, mask, s),
             (3, true) => columns::mismatch::<3, true>(&src, image, rows, mask, s),
             (5, false) => columns::mismatch::<5, false>(&src, image, rows, mask, s),
@@ -313,8 +330,7 @@ impl<'r> Template<'r> {
             (7, false) => columns::mismatch::<7, false>(&src, image, rows, mask, s),
             (7, true) => columns::mismatch::<7, true>(&src, image, rows, mask, s),
             _ => false,
-        };
-        done.then_some(sums)
+        }
     }
 
     /// One pass of `kernel` over the window centred on `c` in `image`: its

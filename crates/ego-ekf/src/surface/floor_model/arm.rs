@@ -28,8 +28,7 @@ const SHAPE: bool = FEATURES == 14 && CLASSES == 7 && UNIT == 22;
 
 // The table is its floats back to back, as the block walks it.
 const _: () = assert!(
-    core::mem::size_of::<MlpTable>()
-        == 4 * (2 * FEATURES + CLASSES + HIDDEN * UNIT + CLASSES)
+    core::mem::size_of::<MlpTable>() == 4 * (2 * FEATURES + CLASSES + HIDDEN * UNIT + CLASSES)
         && core::mem::align_of::<MlpTable>() == 4
 );
 
