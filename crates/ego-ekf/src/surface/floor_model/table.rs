@@ -78,12 +78,12 @@ impl MlpTable {
             *xi = (fi - m) * s;
         }
         let mut out = self.start;
-        let mut unit = |record: &[f32; UNIT]| {
-            let (row, rest) = record
-                .split_first_chunk::<FEATURES>()
-                .unwrap_or((&[0.0; FEATURES], &[]));
+        for record in &self.units {
+            let Some((row, rest)) = record.split_first_chunk::<FEATURES>() else {
+                continue;
+            };
             let Some((b, ws)) = rest.split_first() else {
-                return;
+                continue;
             };
             let a: f32 = row.iter().zip(&x).map(|(w, v)| w * v).sum::<f32>() + b;
             // ReLU as a compare (`f32::max` is a call to the software
@@ -93,16 +93,6 @@ impl MlpTable {
                     *o += w * a;
                 }
             }
-        };
-        // Four units per step (addresses at fixed offsets), then the rest.
-        let (fours, rest) = self.units.as_chunks::<4>();
-        for four in fours {
-            for record in four {
-                unit(record);
-            }
-        }
-        for record in rest {
-            unit(record);
         }
         for (o, b) in out.iter_mut().zip(&self.b2) {
             *o += b;
