@@ -202,18 +202,19 @@ pub(super) fn template<const N: usize>(
 }
 
 /// The lane sums of `Template::mismatch` for a window of `N <=`
-/// [`MAX_COLUMNS`] columns with its top-left sample where `src` says, into
-/// `sums`: `sum (T - J) gx`, `sum (T - J) gy` and, with `ABS`, `sum |T - J|`
-/// (else zero). `tpl` are the template and gradient rows, `mask` their
-/// column mask. `false` (`sums` unspecified) when the template has fewer
-/// than `N` rows.
+/// [`MAX_COLUMNS`] columns with its top-left sample where `src` says, each
+/// lane `k` handed to `lane(k, x, y, s)` in lane order: `sum (T - J) gx`,
+/// `sum (T - J) gy` and, with `ABS`, `sum |T - J|` (else zero); lanes
+/// `N..LANES` get `+0.0` (what the row kernels leave there). `tpl` are the
+/// template and gradient rows, `mask` their column mask. `false` (no lane
+/// handed over) when the template has fewer than `N` rows.
 #[inline(never)]
 pub(super) fn mismatch<const N: usize, const ABS: bool>(
     src: &SourceRows,
     image: &ImageView<'_>,
     [t, gx, gy]: [&[TplRow]; 3],
     mask: &TplRow,
-    sums: &mut Sums,
+    mut lane: impl FnMut(usize, f32, f32, f32),
 ) -> bool {
     let (Some(t), Some(gx), Some(gy)) = (
         t.first_chunk::<N>(),
@@ -234,11 +235,7 @@ pub(super) fn mismatch<const N: usize, const ABS: bool>(
     });
     let ay = src.ay;
     let [first, below @ ..] = &h;
-    // Every lane written: the window's `N`, then `+0.0` in the rest (what
-    // the row kernels leave there).
-    let [sx, sy, sa] = sums;
-    let lanes = sx.iter_mut().zip(sy.iter_mut()).zip(sa.iter_mut());
-    for (k, ((sx, sy), sa)) in lanes.enumerate() {
+    for k in 0..LANES {
         let (mut x, mut y, mut s) = (0.0f32, 0.0f32, 0.0f32);
         if let (true, Some(&m), Some(&top)) = (k < N, mask.get(k), first.get(k)) {
             let mut h0 = top;
@@ -257,7 +254,7 @@ pub(super) fn mismatch<const N: usize, const ABS: bool>(
                 h0 = h1;
             }
         }
-        (*sx, *sy, *sa) = (x, y, s);
+        lane(k, x, y, s);
     }
     true
 }
@@ -373,6 +370,17 @@ mod tests {
                             let (col, row) = (col.map(sums), row.map(sums));
                             assert_eq!(col, row, "n {n} at {at:?} clamp {clamp} abs {abs}");
                             compared += usize::from(col.is_some());
+                            // The totals `Template::mismatch` makes of the
+                            // lanes, each way.
+                            let mut totals = [None, None];
+                            for (order, total) in [false, true].into_iter().zip(&mut totals) {
+                                tpl.column_order = order;
+                                *total = tpl
+                                    .mismatch(&vb, at, clamp, abs)
+                                    .map(|m| bits(&[m.b.x, m.b.y, m.abs]));
+                            }
+                            tpl.column_order = false;
+                            assert_eq!(totals[0], totals[1], "n {n} at {at:?}");
                         }
                     }
                 }

@@ -256,15 +256,24 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<Mismatch> {
-        // One array for either kernel's lane sums (a column kernel writes
-        // every lane; none goes through a returned copy).
-        let mut sums: columns::Sums = [[0.0; LANES]; 3];
-        let by_columns =
-            self.column_order && self.column_sums_into(image, c, clamp, with_abs, &mut sums);
-        if !by_columns {
-            sums = self.row_sums(image, c, clamp, with_abs)?;
+        // The column kernels hand over their lanes in order: each total
+        // adds them as `Iterator::sum` adds the row kernels' lanes.
+        if self.column_order {
+            let mut totals = [-0.0f32; 3];
+            let by_columns = self.column_lanes(image, c, clamp, with_abs, |_, x, y, s| {
+                totals[0] += x;
+                totals[1] += y;
+                totals[2] += s;
+            });
+            if by_columns {
+                let [x, y, abs] = totals;
+                return Some(Mismatch {
+                    b: Vec2::new(x, y),
+                    abs,
+                });
+            }
         }
-        let [sx, sy, sa] = &sums;
+        let [sx, sy, sa] = self.row_sums(image, c, clamp, with_abs)?;
         Some(Mismatch {
             b: Vec2::new(sx.iter().sum::<f32>(), sy.iter().sum::<f32>()),
             abs: sa.iter().sum::<f32>(),
@@ -300,20 +309,27 @@ impl<'r> Template<'r> {
         with_abs: bool,
     ) -> Option<columns::Sums> {
         let mut sums = [[f32::NAN; LANES]; 3];
-        self.column_sums_into(image, c, clamp, with_abs, &mut sums)
-            .then_some(sums)
+        let [sx, sy, sa] = &mut sums;
+        let done = self.column_lanes(image, c, clamp, with_abs, |k, x, y, s| {
+            for (lanes, v) in [&mut *sx, &mut *sy, &mut *sa].into_iter().zip([x, y, s]) {
+                if let Some(slot) = lanes.get_mut(k) {
+                    *slot = v;
+                }
+            }
+        });
+        done.then_some(sums)
     }
 
-    /// [`Template::column_sums`] into `sums` (every lane written); `false`
-    /// (and `sums` left alone) for a window the column kernels do not serve
-    /// or one outside.
-    fn column_sums_into(
+    /// The column kernels' lanes of [`Template::mismatch`] handed to `lane`
+    /// in order (`columns::mismatch`); `false` (none handed over) for a
+    /// window the column kernels do not serve or one outside.
+    fn column_lanes(
         &self,
         image: &ImageView<'_>,
         c: Vec2,
         clamp: bool,
         with_abs: bool,
-        s: &mut columns::Sums,
+        lane: impl FnMut(usize, f32, f32, f32),
     ) -> bool {
         let n = self.n;
         let half = (n / 2) as f32;
@@ -323,12 +339,12 @@ impl<'r> Template<'r> {
         };
         let (rows, mask) = ([&*self.t, &*self.gx, &*self.gy], &self.mask);
         match (n, with_abs) {
-            (3, false) => columns::mismatch::<3, false>(&src, image, rows, mask, s),
-            (3, true) => columns::mismatch::<3, true>(&src, image, rows, mask, s),
-            (5, false) => columns::mismatch::<5, false>(&src, image, rows, mask, s),
-            (5, true) => columns::mismatch::<5, true>(&src, image, rows, mask, s),
-            (7, false) => columns::mismatch::<7, false>(&src, image, rows, mask, s),
-            (7, true) => columns::mismatch::<7, true>(&src, image, rows, mask, s),
+            (3, false) => columns::mismatch::<3, false>(&src, image, rows, mask, lane),
+            (3, true) => columns::mismatch::<3, true>(&src, image, rows, mask, lane),
+            (5, false) => columns::mismatch::<5, false>(&src, image, rows, mask, lane),
+            (5, true) => columns::mismatch::<5, true>(&src, image, rows, mask, lane),
+            (7, false) => columns::mismatch::<7, false>(&src, image, rows, mask, lane),
+            (7, true) => columns::mismatch::<7, true>(&src, image, rows, mask, lane),
             _ => false,
         }
     }
