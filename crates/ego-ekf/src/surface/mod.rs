@@ -301,7 +301,7 @@ impl SurfaceModel {
     }
 
     /// The learned expected slips as a fixed-size record
-    /// ([`slip`](self::slip) module docs).
+    /// ([`slip`] module docs).
     pub fn export_learned_slip(&self) -> [u8; SLIP_RECORD_LEN] {
         self.slip.to_bytes(self.wheel)
     }

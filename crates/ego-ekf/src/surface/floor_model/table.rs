@@ -3,11 +3,11 @@
 //!
 //! Each hidden unit's record holds its input weights, its bias and its
 //! seven output weights back to back, so one pass over the table computes a
-//! cell's scores: on Arm cores with a floating-point unit
-//! ([`super::arm`]) whole records are loaded a few registers at a time
-//! (`VLDM`), elsewhere [`MlpTable::scores`] reads them in Rust. Both add the
-//! same products in the same order as [`MlpWeights::scores`], so the scores
-//! have the same bits.
+//! cell's scores: on Arm cores with a floating-point unit (`floor_model::arm`,
+//! built for those targets only) whole records are loaded a few registers at
+//! a time (`VLDM`), elsewhere [`MlpTable::scores`] reads them in Rust. Both
+//! add the same products in the same order as [`MlpWeights::scores`], so the
+//! scores have the same bits.
 
 use super::{CLASSES, FEATURES, HIDDEN, MlpWeights};
 
