@@ -131,7 +131,7 @@ fuzz_target!(|input: &[u8]| {
             assert!(step.delta.translation.iter().all(|v| v.is_finite()));
             assert!(step.delta.dyaw.is_finite() && step.delta.path_length.is_finite());
             assert_eq!((step.rates.left(), step.rates.right()), (left, right));
-            assert!((0.0351 * left.abs()).max(0.035 * right.abs()) <= 3.0 * 1.0001);
+            assert!((0.035 * left.abs()).max(0.0351 * right.abs()) <= 3.0 * 1.0001);
         }
     }
     assert_eq!(odo.counts().seen(), n);
