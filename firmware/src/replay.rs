@@ -627,7 +627,7 @@ pub fn run_segment(
     }
     // Draws around the training statistics (xorshift32), so that hidden
     // units switch on and off in many patterns.
-    let weights = *model.weights();
+    let weights = model.weights();
     let mut s = 0x2545_f491u32;
     for _ in 0..SCORE_DRAWS {
         let mut f = [0.0f32; FLOOR_FEATURES];
