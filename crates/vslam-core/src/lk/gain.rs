@@ -25,6 +25,7 @@ use crate::fsqrt::sqrtf;
 use crate::geometry::Vec2;
 use crate::image::ImageView;
 
+use super::isa::{Isa, twins};
 use super::template::{RowKernel, Template, TplRow};
 use super::window::{self, LANES, Row};
 
@@ -204,21 +205,34 @@ impl<const CROSS: bool> RowKernel for Compensated<CROSS> {
     #[inline(always)]
     fn row<const C: usize>(
         &self,
+        isa: Isa,
         next: &[u8],
         weights: [f32; 2],
         h: [&mut Row; 2],
         tpl: [&TplRow; 4],
         sums: &mut [[f32; QUAD]; 5],
     ) {
-        compensated_row::<C, CROSS>(next, weights, h, tpl, self.mean, sums);
+        compensated_row::<C, CROSS>(isa, next, weights, h, tpl, self.mean, sums);
     }
 }
 
-/// One window row of the gain-bias kernel (out of line, as the constant
-/// model's row, so that it vectorises; in [`QUAD`] lanes, which keep the
-/// five sums in registers).
-#[inline(never)]
-fn compensated_row<const C: usize, const CROSS: bool>(
+twins! {
+    /// One window row of the gain-bias kernel (out of line, as the constant
+    /// model's row, so that it vectorises; in [`QUAD`] lanes, which keep the
+    /// five sums in registers).
+    fn compensated_row<const C: usize, const CROSS: bool>(
+        isa,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        mean: f32,
+        sums: &mut [[f32; QUAD]; 5],
+    ) => compensated_row_body;
+}
+
+#[inline(always)]
+fn compensated_row_body<const C: usize, const CROSS: bool>(
     next: &[u8],
     [ax, ay]: [f32; 2],
     [h0, h1]: [&mut Row; 2],

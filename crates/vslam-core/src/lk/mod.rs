@@ -59,12 +59,15 @@
 //! - `columns`: the same sums walked a column at a time, for windows of at
 //!   most seven columns on Arm cores without NEON (Cortex-M), bit for bit,
 //! - `gain`: the gain-bias model's moments, kernel and normalised residual,
+//! - `isa`: the row kernels compiled twice on x86-64 with `std` (baseline
+//!   and AVX2, picked at run time; the same bits),
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
 mod columns;
 mod config;
 mod gain;
+mod isa;
 pub mod sample;
 mod template;
 pub mod track;

@@ -9,6 +9,7 @@ use crate::image::ImageView;
 
 use super::columns;
 use super::config::MAX_WINDOW;
+use super::isa::{Isa, twins};
 use super::window::{self, LANES, MAX_CHUNKS, ROW, Row, SRC, SourceRows};
 
 /// Whether [`Template::mismatch`] takes the column kernels (`columns`) for
@@ -66,6 +67,8 @@ pub(super) struct Template<'r> {
     /// Windows of at most [`columns::MAX_COLUMNS`] columns take the column
     /// kernels ([`COLUMN_ORDER`]; the tests switch it).
     pub(super) column_order: bool,
+    /// The row kernels' instruction set ([`Isa::detect`]; the tests switch it).
+    pub(super) isa: Isa,
     /// `G⁻¹` as `[a, b, c]` for `[[a, b], [b, c]]`.
     g_inv: [f32; 3],
     /// Three consecutive rows of the sampled window with its one-pixel
@@ -104,6 +107,7 @@ impl<'r> Template<'r> {
             gy,
             mask: [0.0; TPL],
             column_order: COLUMN_ORDER,
+            isa: Isa::detect(),
             g_inv: [0.0; 3],
             patch: [[0.0; ROW]; 3],
             src: [0; SRC],
@@ -204,16 +208,18 @@ impl<'r> Template<'r> {
             gx,
             gy,
             mask,
+            isa,
             patch: [r0, r1, r2],
             src: buf,
             rows: [top, bottom],
             ..
         } = self;
+        let isa = *isa;
         let mut sums = [[0.0f32; LANES]; 3];
         let (mut h0, mut h1) = (top, bottom);
         let need = P * LANES + 1;
         let weights = [src.ax, src.ay];
-        window::horizontal::<P>(src.row(image, 0, need, buf), src.ax, h0);
+        window::horizontal::<P>(isa, src.row(image, 0, need, buf), src.ax, h0);
         let inside = src.inside_rows(image);
         let (data, mut start, stride) = inside.unwrap_or((&[], 0, 0));
         let outputs = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
@@ -228,13 +234,13 @@ impl<'r> Template<'r> {
                 _ => src.row(image, i + 1, need, buf),
             };
             // The new row goes where the oldest was.
-            patch_row::<P>(next, weights, [h0, h1], a);
+            patch_row::<P>(isa, next, weights, [h0, h1], a);
             core::mem::swap(&mut h0, &mut h1);
             (a, b, c) = (b, c, a);
             if i >= 2
                 && let Some(((t, gx), gy)) = outputs.next()
             {
-                gradient_row::<C>([&*a, &*b, &*c], mask, [t, gx, gy], &mut sums);
+                gradient_row::<C>(isa, [&*a, &*b, &*c], mask, [t, gx, gy], &mut sums);
             }
         }
         let [sxx, sxy, syy] = sums;
@@ -389,14 +395,16 @@ impl<'r> Template<'r> {
             gx,
             gy,
             mask,
+            isa,
             src: buf,
             rows: [top, bottom],
             ..
         } = self;
+        let isa = *isa;
         let (mut h0, mut h1) = (top, bottom);
         let need = C * LANES + 1;
         let weights = [src.ax, src.ay];
-        window::horizontal::<C>(src.row(image, 0, need, buf), src.ax, h0);
+        window::horizontal::<C>(isa, src.row(image, 0, need, buf), src.ax, h0);
         let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
         if let Some((data, mut start, stride)) = src.inside_rows(image) {
             // Inside: the source rows are stride apart in the image buffer.
@@ -406,13 +414,13 @@ impl<'r> Template<'r> {
                     Some(next) => next,
                     None => src.row(image, i + 1, need, buf),
                 };
-                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         } else {
             for (i, ((t, gx), gy)) in rows.enumerate() {
                 let next = src.row(image, i + 1, need, buf);
-                kernel.row::<C>(next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+                kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
                 core::mem::swap(&mut h0, &mut h1);
             }
         }
@@ -426,11 +434,16 @@ impl<'r> Template<'r> {
     }
 }
 
-/// One patch row: the next source row `next` interpolated horizontally into
-/// `h1`, then blended with the previous one `h0` into `out` (out of line,
-/// like [`mismatch_row`]).
-#[inline(never)]
-fn patch_row<const P: usize>(
+twins! {
+    /// One patch row: the next source row `next` interpolated horizontally
+    /// into `h1`, then blended with the previous one `h0` into `out` (out of
+    /// line, like [`mismatch_row`]).
+    fn patch_row<const P: usize>(isa, next: &[u8], weights: [f32; 2], h: [&mut Row; 2], out: &mut Row)
+        => patch_row_body;
+}
+
+#[inline(always)]
+fn patch_row_body<const P: usize>(
     next: &[u8],
     [ax, ay]: [f32; 2],
     [h0, h1]: [&mut Row; 2],
@@ -440,12 +453,22 @@ fn patch_row<const P: usize>(
     window::vertical::<P>(h0, h1, ay, out);
 }
 
-/// One template row from three patch rows: the template (centre row,
-/// shifted by one), the Scharr gradients masked to the window, and the
-/// products `gx², gx gy, gy²` per lane into `sums` (out of line, like
-/// [`mismatch_row`]).
-#[inline(never)]
-fn gradient_row<const C: usize>(
+twins! {
+    /// One template row from three patch rows: the template (centre row,
+    /// shifted by one), the Scharr gradients masked to the window, and the
+    /// products `gx², gx gy, gy²` per lane into `sums` (out of line, like
+    /// [`mismatch_row`]).
+    fn gradient_row<const C: usize>(
+        isa,
+        p: [&Row; 3],
+        mask: &TplRow,
+        out: [&mut TplRow; 3],
+        sums: &mut [[f32; LANES]; 3],
+    ) => gradient_row_body;
+}
+
+#[inline(always)]
+fn gradient_row_body<const C: usize>(
     [p0, p1, p2]: [&Row; 3],
     mask: &TplRow,
     [t, gx, gy]: [&mut TplRow; 3],
@@ -500,9 +523,10 @@ pub(super) trait RowKernel {
     type Sums: Default;
     /// Interpolates the next source row `next` horizontally into `h1`, blends
     /// it with the previous one `h0` (`J = h0 + ay (h1 - h0)`) and adds the
-    /// row's terms against the template row into `sums`.
+    /// row's terms against the template row into `sums`, compiled for `isa`.
     fn row<const C: usize>(
         &self,
+        isa: Isa,
         next: &[u8],
         weights: [f32; 2],
         h: [&mut Row; 2],
@@ -520,23 +544,36 @@ impl<const ABS: bool> RowKernel for Plain<ABS> {
     #[inline(always)]
     fn row<const C: usize>(
         &self,
+        isa: Isa,
         next: &[u8],
         weights: [f32; 2],
         h: [&mut Row; 2],
         tpl: [&TplRow; 4],
         sums: &mut [[f32; LANES]; 3],
     ) {
-        mismatch_row::<C, ABS>(next, weights, h, tpl, sums);
+        mismatch_row::<C, ABS>(isa, next, weights, h, tpl, sums);
     }
 }
 
-/// One window row of [`Template::mismatch`]: interpolates the next source
-/// row `next` horizontally into `h1`; then with `d = T - J` and
-/// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|` per
-/// lane into `sums`. Kept out of line: inlined into the large caller, the
-/// compiler stops vectorising it.
-#[inline(never)]
-fn mismatch_row<const C: usize, const ABS: bool>(
+twins! {
+    /// One window row of [`Template::mismatch`]: interpolates the next
+    /// source row `next` horizontally into `h1`; then with `d = T - J` and
+    /// `J = h0 + ay (h1 - h0)` adds `d gx`, `d gy` and (with `ABS`) `|d|`
+    /// per lane into `sums`. Kept out of line and one row per call: inlined
+    /// into the large caller, or with the row loop or a second row in the
+    /// same function, the compiler stops vectorising the interpolation.
+    fn mismatch_row<const C: usize, const ABS: bool>(
+        isa,
+        next: &[u8],
+        weights: [f32; 2],
+        h: [&mut Row; 2],
+        tpl: [&TplRow; 4],
+        sums: &mut [[f32; LANES]; 3],
+    ) => mismatch_row_body;
+}
+
+#[inline(always)]
+fn mismatch_row_body<const C: usize, const ABS: bool>(
     next: &[u8],
     [ax, ay]: [f32; 2],
     [h0, h1]: [&mut Row; 2],

@@ -439,4 +439,76 @@ mod tests {
             }
         }
     }
+
+    /// The row kernels' AVX2 copies (where this CPU and build have them)
+    /// give the baseline's tracks bit for bit: every window, both
+    /// illumination models, with the affine refinement and the
+    /// forward-backward check, points inside and over the border.
+    #[test]
+    fn the_detected_instruction_set_tracks_as_the_baseline() {
+        use crate::lk::Illumination;
+        use crate::lk::isa::Isa;
+        let (a, b) = (frame(0.0, 0.0), frame(1.3, -0.7));
+        let (va, vb) = (
+            ImageView::packed(&a, W, H).unwrap(),
+            ImageView::packed(&b, W, H).unwrap(),
+        );
+        let mut sa = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+        let mut sb = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+        let pa = Pyramid::build(&va, 3, &mut sa).unwrap();
+        let pb = Pyramid::build(&vb, 3, &mut sb).unwrap();
+        let points: [Vec2; 8] = core::array::from_fn(|i| match i {
+            6 => Vec2::new(2.5, 3.25),
+            7 => Vec2::new(W as f32 - 4.0, H as f32 - 3.5),
+            _ => Vec2::new(8.0 + 15.3 * i as f32, 6.0 + 12.7 * i as f32),
+        });
+        let mut compared = 0;
+        for window in [3, 5, 7, 9, 11, 13, 21, 23, 31] {
+            for affine_refinement in [false, true] {
+                for illumination in [Illumination::Constant, Illumination::GAIN_BIAS] {
+                    let config = LkConfig {
+                        window,
+                        affine_refinement,
+                        illumination,
+                        fb_threshold: Some(0.5),
+                        ..LkConfig::default()
+                    };
+                    let tracker = Tracker::new(config).unwrap();
+                    let run = |isa: Isa| {
+                        let mut out = [TrackResult::EMPTY; 8];
+                        with_rows::<MAX_WINDOW, _>(|tpl| {
+                            tpl.isa = isa;
+                            tpl.column_order = false;
+                            tracker.batch(&pa, &pb, &points, None, &mut out, tpl)
+                        });
+                        out
+                    };
+                    let (base, fast) = (run(Isa::BASELINE), run(Isa::detect()));
+                    for (s, f) in base.iter().zip(&fast) {
+                        assert_eq!(s.status, f.status, "window {window}");
+                        assert_eq!(s.position.x.to_bits(), f.position.x.to_bits());
+                        assert_eq!(s.position.y.to_bits(), f.position.y.to_bits());
+                        assert_eq!(s.residual.to_bits(), f.residual.to_bits());
+                        assert_eq!(s.iterations, f.iterations);
+                        compared += usize::from(s.status == crate::lk::TrackStatus::Tracked);
+                    }
+                }
+            }
+        }
+        assert!(compared > 100, "only {compared} tracks compared");
+    }
+
+    /// With `std` on x86-64 the AVX2 copies run exactly when the CPU has
+    /// AVX2; elsewhere the baseline always does.
+    #[test]
+    fn detection_follows_the_cpu() {
+        use crate::lk::isa::Isa;
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            extern crate std;
+            assert_eq!(Isa::detect().avx2(), std::is_x86_feature_detected!("avx2"));
+        }
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        assert_eq!(Isa::detect(), Isa::BASELINE);
+    }
 }

@@ -142,11 +142,11 @@ impl SourceRows {
     }
 }
 
-/// `out[k] = src[k] + ax (src[k + 1] - src[k])` for the first `C` chunks
-/// (`src` holds at least `C LANES + 1` bytes, see [`SourceRows::row`]).
-#[inline(never)]
-pub(super) fn horizontal<const C: usize>(src: &[u8], ax: f32, out: &mut Row) {
-    horizontal_inline::<C>(src, ax, out);
+super::isa::twins! {
+    /// `out[k] = src[k] + ax (src[k + 1] - src[k])` for the first `C` chunks
+    /// (`src` holds at least `C LANES + 1` bytes, see [`SourceRows::row`]).
+    pub(super) fn horizontal<const C: usize>(isa, src: &[u8], ax: f32, out: &mut Row)
+        => horizontal_inline;
 }
 
 /// [`horizontal`], inlined into a caller that is itself out of line.
@@ -196,8 +196,18 @@ mod tests {
         let (mut b0, mut b1) = ([0u8; SRC], [0u8; SRC]);
         let (mut h0, mut h1, mut v) = ([0f32; ROW], [0f32; ROW], [0f32; ROW]);
         for i in 0..rows {
-            horizontal::<MAX_CHUNKS>(src.row(image, i, SRC, &mut b0), src.ax, &mut h0);
-            horizontal::<MAX_CHUNKS>(src.row(image, i + 1, SRC, &mut b1), src.ax, &mut h1);
+            horizontal::<MAX_CHUNKS>(
+                crate::lk::isa::Isa::BASELINE,
+                src.row(image, i, SRC, &mut b0),
+                src.ax,
+                &mut h0,
+            );
+            horizontal::<MAX_CHUNKS>(
+                crate::lk::isa::Isa::BASELINE,
+                src.row(image, i + 1, SRC, &mut b1),
+                src.ax,
+                &mut h1,
+            );
             vertical::<MAX_CHUNKS>(&h0, &h1, src.ay, &mut v);
             out[i * cols..(i + 1) * cols].copy_from_slice(&v[..cols]);
         }
