@@ -388,7 +388,6 @@ impl<'r> Template<'r> {
         src: &SourceRows,
         kernel: &K,
     ) -> K::Sums {
-        let mut sums = K::Sums::default();
         let Template {
             n,
             t,
@@ -401,30 +400,11 @@ impl<'r> Template<'r> {
             ..
         } = self;
         let isa = *isa;
-        let (mut h0, mut h1) = (top, bottom);
         let need = C * LANES + 1;
-        let weights = [src.ax, src.ay];
-        window::horizontal::<C>(isa, src.row(image, 0, need, buf), src.ax, h0);
-        let rows = t.iter().zip(gx.iter()).zip(gy.iter()).take(*n);
-        if let Some((data, mut start, stride)) = src.inside_rows(image) {
-            // Inside: the source rows are stride apart in the image buffer.
-            for (i, ((t, gx), gy)) in rows.enumerate() {
-                start = start.saturating_add(stride);
-                let next = match data.get(start..start.saturating_add(need)) {
-                    Some(next) => next,
-                    None => src.row(image, i + 1, need, buf),
-                };
-                kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
-                core::mem::swap(&mut h0, &mut h1);
-            }
-        } else {
-            for (i, ((t, gx), gy)) in rows.enumerate() {
-                let next = src.row(image, i + 1, need, buf);
-                kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
-                core::mem::swap(&mut h0, &mut h1);
-            }
-        }
-        sums
+        window::horizontal::<C>(isa, src.row(image, 0, need, buf), src.ax, top);
+        let n = *n;
+        let tpl = [&**t, &**gx, &**gy].map(|rows| rows.get(..n).unwrap_or(&[]));
+        sweep_rows::<C, K>(kernel, isa, image, src, buf, [top, bottom], tpl, mask)
     }
 
     /// `G⁻¹ b`.
@@ -432,6 +412,47 @@ impl<'r> Template<'r> {
         let [a, o, c] = self.g_inv;
         Vec2::new(a * b.x + o * b.y, o * b.x + c * b.y)
     }
+}
+
+/// The rows of one [`Template::sweep`] after the first interpolated source
+/// row (in `h[0]`): each next source row through `kernel` against the
+/// template rows `tpl` (`T`, `gx`, `gy`), its lane sums returned. Out of
+/// line: the loop's state stays in registers, apart from the large caller's.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn sweep_rows<const C: usize, K: RowKernel>(
+    kernel: &K,
+    isa: Isa,
+    image: &ImageView<'_>,
+    src: &SourceRows,
+    buf: &mut [u8; SRC],
+    [mut h0, mut h1]: [&mut Row; 2],
+    [t, gx, gy]: [&[TplRow]; 3],
+    mask: &TplRow,
+) -> K::Sums {
+    let mut sums = K::Sums::default();
+    let need = C * LANES + 1;
+    let weights = [src.ax, src.ay];
+    let rows = t.iter().zip(gx).zip(gy);
+    if let Some((data, mut start, stride)) = src.inside_rows(image) {
+        // Inside: the source rows are stride apart in the image buffer.
+        for (i, ((t, gx), gy)) in rows.enumerate() {
+            start = start.saturating_add(stride);
+            let next = match data.get(start..start.saturating_add(need)) {
+                Some(next) => next,
+                None => src.row(image, i + 1, need, buf),
+            };
+            kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+            core::mem::swap(&mut h0, &mut h1);
+        }
+    } else {
+        for (i, ((t, gx), gy)) in rows.enumerate() {
+            let next = src.row(image, i + 1, need, buf);
+            kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
+            core::mem::swap(&mut h0, &mut h1);
+        }
+    }
+    sums
 }
 
 twins! {
