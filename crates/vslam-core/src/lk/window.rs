@@ -120,11 +120,12 @@ impl SourceRows {
         let Some(row) = image.row(y) else {
             return buf;
         };
-        if self.inside {
-            let x0 = self.x0 as usize;
-            if let Some(src) = row.get(x0..x0 + need) {
-                return src;
-            }
+        // A row whose columns are all inside (the window may still hang
+        // over the top or bottom) is borrowed, clamped row and all.
+        if let Ok(x0) = usize::try_from(self.x0)
+            && let Some(src) = row.get(x0..x0.saturating_add(need))
+        {
+            return src;
         }
         // Left of the image: the first pixel; right: the last.
         let first = row.first().copied().unwrap_or(0);
