@@ -433,20 +433,41 @@ fn sweep_rows<const C: usize, K: RowKernel>(
     let mut sums = K::Sums::default();
     let need = C * LANES + 1;
     let weights = [src.ax, src.ay];
-    let rows = t.iter().zip(gx).zip(gy);
     if let Some((data, mut start, stride)) = src.inside_rows(image) {
         // Inside: the source rows are stride apart in the image buffer.
-        for (i, ((t, gx), gy)) in rows.enumerate() {
+        // Rows in pairs, so that the two interpolated rows keep their roles
+        // in each call (no pointer swap to carry through the loop).
+        let (t2, t_last) = t.as_chunks::<2>();
+        let (gx2, gx_last) = gx.as_chunks::<2>();
+        let (gy2, gy_last) = gy.as_chunks::<2>();
+        let mut i = 1;
+        for (([t0, t1], [gx0, gx1]), [gy0, gy1]) in t2.iter().zip(gx2).zip(gy2) {
+            start = start.saturating_add(stride);
+            let next = match data.get(start..start.saturating_add(need)) {
+                Some(next) => next,
+                None => src.row(image, i, need, buf),
+            };
+            let h = [&mut *h0, &mut *h1];
+            kernel.row::<C>(isa, next, weights, h, [t0, gx0, gy0, mask], &mut sums);
             start = start.saturating_add(stride);
             let next = match data.get(start..start.saturating_add(need)) {
                 Some(next) => next,
                 None => src.row(image, i + 1, need, buf),
             };
+            let h = [&mut *h1, &mut *h0];
+            kernel.row::<C>(isa, next, weights, h, [t1, gx1, gy1, mask], &mut sums);
+            i += 2;
+        }
+        if let (Some(t), Some(gx), Some(gy)) = (t_last.first(), gx_last.first(), gy_last.first()) {
+            start = start.saturating_add(stride);
+            let next = match data.get(start..start.saturating_add(need)) {
+                Some(next) => next,
+                None => src.row(image, i, need, buf),
+            };
             kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
-            core::mem::swap(&mut h0, &mut h1);
         }
     } else {
-        for (i, ((t, gx), gy)) in rows.enumerate() {
+        for (i, ((t, gx), gy)) in t.iter().zip(gx).zip(gy).enumerate() {
             let next = src.row(image, i + 1, need, buf);
             kernel.row::<C>(isa, next, weights, [h0, h1], [t, gx, gy, mask], &mut sums);
             core::mem::swap(&mut h0, &mut h1);
