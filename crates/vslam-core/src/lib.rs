@@ -23,7 +23,7 @@
 //!
 //! Feature `std` (off by default; it only adds): on x86-64 the Lucas-Kanade
 //! row kernels get AVX2 copies, picked at run time when the CPU has AVX2,
-//! with the same results bit for bit (4.91 M against 8.19 M instructions per
+//! with the same results bit for bit (4.83 M against 8.07 M instructions per
 //! tracking call of the `lk` bench's input, `benches/README.md`).
 //!
 //! # Example: a homography from four matches, and time as integers

@@ -3,8 +3,8 @@
 //! The row kernels (`template`, `gain`) are straight-line loops over eight
 //! `f32` lanes. Compiled for the x86-64 baseline (SSE2) each lane group
 //! takes two 4-wide registers; with AVX2 it takes one 8-wide register: one
-//! tracking call of the `lk` bench's input runs 4.91 M instructions with the
-//! AVX2 copies against 8.19 M with the baseline ones (callgrind, see
+//! tracking call of the `lk` bench's input runs 4.83 M instructions with the
+//! AVX2 copies against 8.07 M with the baseline ones (callgrind, see
 //! `benches/README.md`). With the `std` feature on x86-64, each kernel is
 //! compiled twice ([`twins`]) and [`Isa::detect`] picks the AVX2 copy at
 //! run time when the CPU has it; elsewhere (Cortex-M, no `std`) only the
