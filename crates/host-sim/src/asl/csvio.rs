@@ -18,8 +18,9 @@ pub struct Row {
     pub line: u64,
     /// The first column.
     pub t: Timestamp,
-    /// The remaining columns, trimmed.
-    pub fields: Vec<String>,
+    /// The whole record as read: the time stamp, then the fields (each
+    /// trimmed when it is read, [`Row::field`]).
+    record: csv::StringRecord,
 }
 
 impl Row {
@@ -82,9 +83,9 @@ impl Row {
 
     /// Field `i` as text.
     pub fn field(&self, path: &Path, i: usize, name: &str) -> Result<&str, CliError> {
-        self.fields
-            .get(i)
-            .map(String::as_str)
+        i.checked_add(1)
+            .and_then(|i| self.record.get(i))
+            .map(str::trim)
             .ok_or_else(|| CliError::line(path, self.line, format!("missing column {name}")))
     }
 }
@@ -107,7 +108,6 @@ fn read(path: &Path, columns: usize, increasing: bool) -> Result<Vec<Row>, CliEr
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
-        .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let mut rows: Vec<Row> = Vec::new();
     for rec in rdr.records() {
@@ -116,7 +116,8 @@ fn read(path: &Path, columns: usize, increasing: bool) -> Result<Vec<Row>, CliEr
             CliError::line(path, line, format!("malformed CSV: {e}"))
         })?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        let first = rec.get(0).unwrap_or("");
+        // Fields are trimmed where they are read: most rows have no spaces.
+        let first = rec.get(0).unwrap_or("").trim();
         if first.starts_with('#') || (rec.len() == 1 && first.is_empty()) {
             continue;
         }
@@ -153,7 +154,7 @@ fn read(path: &Path, columns: usize, increasing: bool) -> Result<Vec<Row>, CliEr
         rows.push(Row {
             line,
             t,
-            fields: rec.iter().skip(1).map(str::to_owned).collect(),
+            record: rec,
         });
     }
     Ok(rows)
@@ -205,10 +206,13 @@ mod tests {
     fn reads_rows_with_header_and_spaces() {
         let p = write(
             "ok",
-            "#timestamp [ns],left [ticks],right [ticks]\n100, 1,2\n200,3 ,-4\n",
+            "#timestamp [ns],left [ticks],right [ticks]\n100, 1,2\n200,3 ,-4\n  300 ,\t5 , 6 \n",
         );
         let rows = read_rows(&p, 3).unwrap();
-        assert_eq!(rows.len(), 2);
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[2].t, Timestamp(300));
+        assert_eq!(rows[2].int::<i64>(&p, 0, "left").unwrap(), 5);
+        assert_eq!(rows[2].f64(&p, 1, "right").unwrap(), 6.0);
         assert_eq!(rows[1].t, Timestamp(200));
         assert_eq!(rows[1].int::<i64>(&p, 1, "right").unwrap(), -4);
         assert_eq!(rows[1].line, 3);
