@@ -397,6 +397,18 @@ mod tests {
         f
     }
 
+    /// `a` and `b` are the same tracks, bit for bit.
+    fn assert_same_tracks(a: &[TrackResult], b: &[TrackResult], window: usize) {
+        assert_eq!(a.len(), b.len());
+        for (s, f) in a.iter().zip(b) {
+            assert_eq!(s.status, f.status, "window {window}");
+            assert_eq!(s.position.x.to_bits(), f.position.x.to_bits());
+            assert_eq!(s.position.y.to_bits(), f.position.y.to_bits());
+            assert_eq!(s.residual.to_bits(), f.residual.to_bits());
+            assert_eq!(s.iterations, f.iterations);
+        }
+    }
+
     /// Every window gets the same tracks from its sized template as from
     /// one of [`MAX_WINDOW`] rows, bit for bit, with the affine refinement
     /// and the forward-backward check (which reuse the template).
@@ -429,13 +441,7 @@ mod tests {
                     tracker.batch(&pa, &pb, &points, None, &mut full, tpl)
                 });
                 assert!(counts.tracked > 0, "window {window}: nothing tracked");
-                for (s, f) in sized.iter().zip(&full) {
-                    assert_eq!(s.status, f.status, "window {window}");
-                    assert_eq!(s.position.x.to_bits(), f.position.x.to_bits());
-                    assert_eq!(s.position.y.to_bits(), f.position.y.to_bits());
-                    assert_eq!(s.residual.to_bits(), f.residual.to_bits());
-                    assert_eq!(s.iterations, f.iterations);
-                }
+                assert_same_tracks(&sized, &full, window);
             }
         }
     }
@@ -484,14 +490,8 @@ mod tests {
                         out
                     };
                     let (base, fast) = (run(Isa::BASELINE), run(Isa::detect()));
-                    for (s, f) in base.iter().zip(&fast) {
-                        assert_eq!(s.status, f.status, "window {window}");
-                        assert_eq!(s.position.x.to_bits(), f.position.x.to_bits());
-                        assert_eq!(s.position.y.to_bits(), f.position.y.to_bits());
-                        assert_eq!(s.residual.to_bits(), f.residual.to_bits());
-                        assert_eq!(s.iterations, f.iterations);
-                        compared += usize::from(s.status == crate::lk::TrackStatus::Tracked);
-                    }
+                    assert_same_tracks(&base, &fast, window);
+                    compared += base.iter().filter(|r| r.status.is_tracked()).count();
                 }
             }
         }
