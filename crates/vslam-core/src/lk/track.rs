@@ -397,6 +397,21 @@ mod tests {
         f
     }
 
+    /// Runs `f` with the 3-level pyramids of [`frame`] and of it shifted
+    /// by `(1.3, -0.7)` pixels.
+    fn with_pyramids(f: impl FnOnce(&Pyramid<'_>, &Pyramid<'_>)) {
+        let (a, b) = (frame(0.0, 0.0), frame(1.3, -0.7));
+        let (va, vb) = (
+            ImageView::packed(&a, W, H).unwrap(),
+            ImageView::packed(&b, W, H).unwrap(),
+        );
+        let mut sa = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+        let mut sb = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
+        let pa = Pyramid::build(&va, 3, &mut sa).unwrap();
+        let pb = Pyramid::build(&vb, 3, &mut sb).unwrap();
+        f(&pa, &pb);
+    }
+
     /// `a` and `b` are the same tracks, bit for bit.
     fn assert_same_tracks(a: &[TrackResult], b: &[TrackResult], window: usize) {
         assert_eq!(a.len(), b.len());
@@ -414,36 +429,29 @@ mod tests {
     /// and the forward-backward check (which reuse the template).
     #[test]
     fn a_template_sized_for_the_window_tracks_as_the_largest() {
-        let (a, b) = (frame(0.0, 0.0), frame(1.3, -0.7));
-        let (va, vb) = (
-            ImageView::packed(&a, W, H).unwrap(),
-            ImageView::packed(&b, W, H).unwrap(),
-        );
-        let mut sa = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-        let mut sb = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-        let pa = Pyramid::build(&va, 3, &mut sa).unwrap();
-        let pb = Pyramid::build(&vb, 3, &mut sb).unwrap();
-        let points: [Vec2; 6] =
-            core::array::from_fn(|i| Vec2::new(8.0 + 15.3 * i as f32, 6.0 + 12.7 * i as f32));
-        for window in [3, 7, 9, 11, 13, 21, 23, 31] {
-            for affine_refinement in [false, true] {
-                let config = LkConfig {
-                    window,
-                    affine_refinement,
-                    fb_threshold: Some(0.5),
-                    ..LkConfig::default()
-                };
-                let tracker = Tracker::new(config).unwrap();
-                let mut sized = [TrackResult::EMPTY; 6];
-                let counts = tracker.track(&pa, &pb, &points, &mut sized).unwrap();
-                let mut full = [TrackResult::EMPTY; 6];
-                with_rows::<MAX_WINDOW, _>(|tpl| {
-                    tracker.batch(&pa, &pb, &points, None, &mut full, tpl)
-                });
-                assert!(counts.tracked > 0, "window {window}: nothing tracked");
-                assert_same_tracks(&sized, &full, window);
+        with_pyramids(|pa, pb| {
+            let points: [Vec2; 6] =
+                core::array::from_fn(|i| Vec2::new(8.0 + 15.3 * i as f32, 6.0 + 12.7 * i as f32));
+            for window in [3, 7, 9, 11, 13, 21, 23, 31] {
+                for affine_refinement in [false, true] {
+                    let config = LkConfig {
+                        window,
+                        affine_refinement,
+                        fb_threshold: Some(0.5),
+                        ..LkConfig::default()
+                    };
+                    let tracker = Tracker::new(config).unwrap();
+                    let mut sized = [TrackResult::EMPTY; 6];
+                    let counts = tracker.track(pa, pb, &points, &mut sized).unwrap();
+                    let mut full = [TrackResult::EMPTY; 6];
+                    with_rows::<MAX_WINDOW, _>(|tpl| {
+                        tracker.batch(pa, pb, &points, None, &mut full, tpl)
+                    });
+                    assert!(counts.tracked > 0, "window {window}: nothing tracked");
+                    assert_same_tracks(&sized, &full, window);
+                }
             }
-        }
+        });
     }
 
     /// The row kernels' AVX2 copies (where this CPU and build have them)
@@ -454,48 +462,41 @@ mod tests {
     fn the_detected_instruction_set_tracks_as_the_baseline() {
         use crate::lk::Illumination;
         use crate::lk::isa::Isa;
-        let (a, b) = (frame(0.0, 0.0), frame(1.3, -0.7));
-        let (va, vb) = (
-            ImageView::packed(&a, W, H).unwrap(),
-            ImageView::packed(&b, W, H).unwrap(),
-        );
-        let mut sa = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-        let mut sb = PyramidStorage::<{ storage_bytes(W, H, 3) }>::new();
-        let pa = Pyramid::build(&va, 3, &mut sa).unwrap();
-        let pb = Pyramid::build(&vb, 3, &mut sb).unwrap();
-        let points: [Vec2; 8] = core::array::from_fn(|i| match i {
-            6 => Vec2::new(2.5, 3.25),
-            7 => Vec2::new(W as f32 - 4.0, H as f32 - 3.5),
-            _ => Vec2::new(8.0 + 15.3 * i as f32, 6.0 + 12.7 * i as f32),
-        });
-        let mut compared = 0;
-        for window in [3, 5, 7, 9, 11, 13, 21, 23, 31] {
-            for affine_refinement in [false, true] {
-                for illumination in [Illumination::Constant, Illumination::GAIN_BIAS] {
-                    let config = LkConfig {
-                        window,
-                        affine_refinement,
-                        illumination,
-                        fb_threshold: Some(0.5),
-                        ..LkConfig::default()
-                    };
-                    let tracker = Tracker::new(config).unwrap();
-                    let run = |isa: Isa| {
-                        let mut out = [TrackResult::EMPTY; 8];
-                        with_rows::<MAX_WINDOW, _>(|tpl| {
-                            tpl.isa = isa;
-                            tpl.column_order = false;
-                            tracker.batch(&pa, &pb, &points, None, &mut out, tpl)
-                        });
-                        out
-                    };
-                    let (base, fast) = (run(Isa::BASELINE), run(Isa::detect()));
-                    assert_same_tracks(&base, &fast, window);
-                    compared += base.iter().filter(|r| r.status.is_tracked()).count();
+        with_pyramids(|pa, pb| {
+            let points: [Vec2; 8] = core::array::from_fn(|i| match i {
+                6 => Vec2::new(2.5, 3.25),
+                7 => Vec2::new(W as f32 - 4.0, H as f32 - 3.5),
+                _ => Vec2::new(8.0 + 15.3 * i as f32, 6.0 + 12.7 * i as f32),
+            });
+            let mut compared = 0;
+            for window in [3, 5, 7, 9, 11, 13, 21, 23, 31] {
+                for affine_refinement in [false, true] {
+                    for illumination in [Illumination::Constant, Illumination::GAIN_BIAS] {
+                        let config = LkConfig {
+                            window,
+                            affine_refinement,
+                            illumination,
+                            fb_threshold: Some(0.5),
+                            ..LkConfig::default()
+                        };
+                        let tracker = Tracker::new(config).unwrap();
+                        let run = |isa: Isa| {
+                            let mut out = [TrackResult::EMPTY; 8];
+                            with_rows::<MAX_WINDOW, _>(|tpl| {
+                                tpl.isa = isa;
+                                tpl.column_order = false;
+                                tracker.batch(pa, pb, &points, None, &mut out, tpl)
+                            });
+                            out
+                        };
+                        let (base, fast) = (run(Isa::BASELINE), run(Isa::detect()));
+                        assert_same_tracks(&base, &fast, window);
+                        compared += base.iter().filter(|r| r.status.is_tracked()).count();
+                    }
                 }
             }
-        }
-        assert!(compared > 100, "only {compared} tracks compared");
+            assert!(compared > 100, "only {compared} tracks compared");
+        });
     }
 
     /// With `std` on x86-64 the AVX2 copies run exactly when the CPU has
