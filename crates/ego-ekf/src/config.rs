@@ -452,13 +452,19 @@ pub struct RecoveryConfig {
     /// them ([`crate::recovery::overruns`]); below it the wheels may be
     /// frozen or the robot pushed.
     pub overrun_min_speed: f32,
+    /// Horizontal specific force, m/s^2, at which an IMU step is an impact
+    /// (the robot hit something; see [`crate::impact`]); infinite: never.
+    pub impact_accel: f32,
+    /// How long, ns, either side of an impact the wheels are gated on their
+    /// uninflated noise (ends early once they agree again).
+    pub impact_hold_ns: u64,
 }
 
 impl Default for RecoveryConfig {
     /// Wheels trusted on floors of grip 0.85 and more (wood, tile),
     /// a steady stretch within 5 cm/s, silence after 0.5 s, a flow witness
     /// only when its mean is known to 0.2 m/s, a filter overrunning wheels
-    /// that turn at 5 cm/s or more.
+    /// that turn at 5 cm/s or more, an impact at 1 g held for up to 5 s.
     fn default() -> Self {
         Self::DEFAULT
     }
@@ -472,6 +478,8 @@ impl RecoveryConfig {
         silence_ns: 500_000_000,
         flow_witness_max_std: 0.2,
         overrun_min_speed: 0.05,
+        impact_accel: 9.806_65,
+        impact_hold_ns: 5_000_000_000,
     };
 }
 
@@ -871,6 +879,10 @@ impl FilterConfig {
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
         let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
+        // NaN or a non-positive level would call every step an impact.
+        if self.recovery.impact_accel.is_nan() || self.recovery.impact_accel <= 0.0 {
+            return Err(ConfigError::BadLimit);
+        }
         if self.wheel.skid.is_some_and(|s| !s.is_valid()) {
             return Err(ConfigError::BadNoise);
         }

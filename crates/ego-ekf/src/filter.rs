@@ -14,6 +14,7 @@ use crate::floor::FloorFusion;
 use crate::flow::{FlowFused, FlowFusion};
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
+use crate::impact::{ImpactWatch, horizontal_deviation};
 use crate::init::{Initialiser, StillStart};
 use crate::observability;
 use crate::plausibility::PlausibilityCheck;
@@ -151,6 +152,8 @@ pub struct EgoEkf {
     refutation: Refutation,
     /// The scale pipeline's standing verdict against the wheels.
     distrust: WheelDistrust,
+    /// The latest horizontal impact (see [`crate::impact`]).
+    impact: ImpactWatch,
     /// The adverse-event memory's weights where the robot is.
     weights: SensorWeights,
     /// The ground's vibration, measured from the accelerometer.
@@ -272,6 +275,7 @@ impl EgoEkf {
             recovery,
             refutation,
             distrust,
+            impact,
             weights,
             vibration,
             gaps,
@@ -297,6 +301,7 @@ impl EgoEkf {
         *recovery = RecoveryCounts::new();
         *refutation = Refutation::new();
         *distrust = WheelDistrust::new();
+        *impact = ImpactWatch::new();
         *weights = SensorWeights::FULL;
         *vibration = Vibration::new();
         *gaps = GapCounts::new();
@@ -367,6 +372,7 @@ impl EgoEkf {
             recovery: RecoveryCounts::new(),
             refutation: Refutation::new(),
             distrust: WheelDistrust::new(),
+            impact: ImpactWatch::new(),
             weights: SensorWeights::FULL,
             vibration: Vibration::new(),
             gaps: GapCounts::new(),
@@ -527,6 +533,11 @@ impl EgoEkf {
         }
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
+        self.impact.step(
+            &self.config.recovery,
+            sample.t(),
+            horizontal_deviation(&self.x, &accel),
+        );
 
         if !still && self.clone == CloneUse::Still {
             // Nothing reads the clone until the next still step or camera
@@ -726,6 +737,7 @@ impl EgoEkf {
             self.distrust.factor_at(rates.t()) * weights::std_factor(self.weights.wheel);
         // An infinite factor refuses the forward rows, as the flow's refutation does.
         let refuted = refuted || noise_factor.is_infinite();
+        let strict = self.impact.holds_at(&self.config.recovery, rates.t());
         let before = self.before_update();
         let mut out = self.wheel.fuse(
             &mut self.x,
@@ -737,8 +749,12 @@ impl EgoEkf {
             &self.config.recovery,
             refuted,
             noise_factor,
+            strict,
         );
         self.reanchor(before.as_ref());
+        if strict && let Ok(inn) = &out {
+            self.impact.judged(rates.t(), inn.forward_fused, inn.gated);
+        }
         if self.distrust.holds_at(rates.t()) {
             self.distrust.record(match &out {
                 Ok(inn) if inn.gated => Err(Reject::Gated),

@@ -18,7 +18,8 @@
 //!   fuse* apart from *the maths*; [`aid_status`]: the one status record
 //!   each of them leaves (PX4 EKF2 `estimator_aid_source` style);
 //! - [`recovery`]: cross-sensor policy (the flow as a witness, the way out
-//!   of a lockout from the most trusted source);
+//!   of a lockout from the most trusted source); [`impact`]: the wheels
+//!   gated strictly where the robot hit something;
 //!   [`gap`]: bridging an IMU gap;
 //! - [`filter`]: [`EgoEkf`], the type users call; an aid written outside
 //!   the crate fuses through [`EgoEkf::fuse_external`] (a worked example:
@@ -72,6 +73,7 @@ pub mod floor;
 pub mod flow;
 pub mod gap;
 pub mod grip;
+pub mod impact;
 pub mod init;
 mod kernels;
 pub mod observability;

@@ -28,4 +28,10 @@ impl EgoEkf {
     pub fn wheel_distrust_counts(&self) -> &SampleCounts {
         self.distrust.counts()
     }
+
+    /// Horizontal impacts seen and the wheel samples gated strictly around
+    /// them (see [`crate::impact`]).
+    pub fn impacts(&self) -> &crate::impact::ImpactWatch {
+        &self.impact
+    }
 }

@@ -3,7 +3,11 @@
 //!
 //! The forward and differential rows are each tested with the grip's 1-DOF
 //! chi-square gate (`GripParams::forward_gate`); when either fails the wheels
-//! slipped and the sample is counted as [`Reject::Gated`]. The lateral and
+//! slipped and the sample is counted as [`Reject::Gated`]. A distrust factor
+//! inflates the noise the rows are fused with and, away from an impact, the
+//! noise they are gated on; around an impact ([`crate::impact`]) they are
+//! gated as the uninflated rows would be
+//! ([`crate::wheel::update::update_gated_on`]). The lateral and
 //! vertical non-holonomic rows are fused either way, and the forward row too
 //! when it passed and only the differential row failed (the body did not
 //! turn as the wheels did: [`crate::wheel::update`]). The forward innovation
@@ -35,7 +39,7 @@ use crate::recovery::{Verdict, WheelWatch};
 use crate::state::{Covariance, NominalState, Vec3};
 use crate::wheel::model::{DIFFERENTIAL, wheel_rows};
 use crate::wheel::skid::{SkidConfig, TrackEstimate, TrackScale};
-use crate::wheel::update::{WheelUpdate, update};
+use crate::wheel::update::{WheelUpdate, update_gated_on};
 
 /// The forward wheel-velocity innovation of one wheel sample: the short
 /// answer of [`crate::EgoEkf::fuse_wheel`]; the sample's full record is its
@@ -171,7 +175,9 @@ impl WheelFusion {
     /// whatever its test ([`crate::recovery::Refutation`]). `noise_factor`
     /// (at least 1) multiplies the forward and differential noise's standard
     /// deviation: the scale pipeline's distrust of the wheels
-    /// ([`crate::wheel::distrust`]); 1 leaves the grip's noise.
+    /// ([`crate::wheel::distrust`]); 1 leaves the grip's noise. `strict`:
+    /// the rows are gated on the grip's noise, not the inflated one (an
+    /// impact, [`crate::impact`]).
     #[allow(clippy::too_many_arguments)]
     pub fn fuse(
         &mut self,
@@ -184,6 +190,7 @@ impl WheelFusion {
         recovery: &RecoveryConfig,
         refuted: bool,
         noise_factor: f32,
+        strict: bool,
     ) -> Result<WheelInnovation, Reject> {
         // A factor the grip refuses (not finite, not positive) leaves the grip's noise.
         let inflated = GripParams::new(
@@ -198,8 +205,15 @@ impl WheelFusion {
                 .with_learn_radius(grip.learn_radius())
         })
         .unwrap_or(*grip);
+        // Strict: the gate counts `1 / ratio^2` of the inflated noise.
+        let ratio = inflated.forward_std() / grip.forward_std();
+        let gate_noise = if strict && ratio.is_finite() && ratio > 1.0 {
+            1.0 / (ratio * ratio)
+        } else {
+            1.0
+        };
         let grip = &inflated;
-        let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted);
+        let checked = self.fuse_inner(x, p, gyro, rates, grip, now, refuted, gate_noise);
         let outcome = checked.map(|(inn, _)| inn);
         match outcome {
             Ok(inn) if !inn.forward_fused => self.watch.gated(recovery, rates.t(), inn.forward),
@@ -233,6 +247,7 @@ impl WheelFusion {
         outcome
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn fuse_inner(
         &mut self,
         x: &mut NominalState,
@@ -242,6 +257,7 @@ impl WheelFusion {
         grip: &GripParams,
         now: Timestamp,
         refuted: bool,
+        gate_noise: f32,
     ) -> Result<(WheelInnovation, GatedRows), Reject> {
         match rates.t().nanos_since(now) {
             Some(ahead) if ahead > self.max_age_ns => return Err(Reject::NotReady),
@@ -289,7 +305,7 @@ impl WheelFusion {
         // Refuted by the flow ([`crate::recovery::Refutation`]): the
         // forward and differential rows are gated whatever their test says.
         let gate = if refuted { 0.0 } else { grip.forward_gate() };
-        let u = update(x, p, &rows, gate)?;
+        let u = update_gated_on(x, p, &rows, gate, gate_noise)?;
         let inn = WheelInnovation {
             forward: u.forward,
             forward_var: u.forward_var,

@@ -93,6 +93,23 @@ pub fn update(
     rows: &WheelRows,
     forward_gate: f32,
 ) -> Result<WheelUpdate, Reject> {
+    update_gated_on(x, p, rows, forward_gate, 1.0)
+}
+
+/// [`update`] whose gate counts only `gate_noise` (in `(0, 1]`) of the
+/// forward and differential rows' noise: rows whose noise was inflated by a
+/// distrust factor `f` (the adverse-event memory's weight, the scale
+/// pipeline's verdict) are fused with the inflated noise but gated as the
+/// uninflated ones would be (`gate_noise = 1 / f^2`), so that distrust
+/// lowers what a sample counts and never lets a larger innovation pass.
+/// A value outside `(0, 1]` counts the whole noise.
+pub fn update_gated_on(
+    x: &mut NominalState,
+    p: &mut Covariance,
+    rows: &WheelRows,
+    forward_gate: f32,
+    gate_noise: f32,
+) -> Result<WheelUpdate, Reject> {
     if !rows.is_finite() {
         return Err(Reject::NonFinite);
     }
@@ -120,8 +137,20 @@ pub fn update(
     if !(var_fwd > 0.0 && var_diff > 0.0) {
         return Err(Reject::Degenerate);
     }
-    let forward_passes = forward * forward / var_fwd <= forward_gate;
-    let differential_passes = diff * diff / var_diff <= forward_gate;
+    // The gate's variances: the rows' noise counted at `gate_noise`.
+    let shrink = if gate_noise > 0.0 && gate_noise <= 1.0 {
+        1.0 - gate_noise
+    } else {
+        0.0
+    };
+    let [n_fwd, n_diff, ..] = rows.noise;
+    let test_fwd = var_fwd - shrink * n_fwd;
+    let test_diff = var_diff - shrink * n_diff;
+    if !(test_fwd > 0.0 && test_diff > 0.0) {
+        return Err(Reject::Degenerate);
+    }
+    let forward_passes = forward * forward / test_fwd <= forward_gate;
+    let differential_passes = diff * diff / test_diff <= forward_gate;
     let hold: &[usize] = if rows.holds_radius() { &RADII } else { &[] };
     match (forward_passes, differential_passes) {
         (true, true) => fuse_holding(x, p, &mut pht, &s, &rows.residual, hold)?,
