@@ -136,13 +136,15 @@ impl SensorSample for WheelTicks {
         _: u32,
     ) -> bool {
         match (kind, before, previous) {
-            (FaultKind::WheelOutlier, _, Some(p)) => {
-                let (dl, dr) = (self.left - p.left, self.right - p.right);
-                if dl == 0 && dr == 0 {
+            // Every increment from the last count before the fault x100, so
+            // each spoiled sample's own increment is x100 (the counts after
+            // the fault are the true ones again: one jump back, not judged).
+            (FaultKind::WheelOutlier, Some(b), Some(p)) => {
+                if self.left == p.left && self.right == p.right {
                     return false;
                 }
-                self.left = p.left + 100 * dl;
-                self.right = p.right + 100 * dr;
+                self.left = b.left + 100 * (self.left - b.left);
+                self.right = b.right + 100 * (self.right - b.right);
             }
             (FaultKind::WheelStuck, Some(b), _) => {
                 self.left = b.left;
@@ -529,6 +531,15 @@ mod tests {
             (40 + 1000, 20 + 500)
         );
         assert_eq!(out[6].sample.left, 60);
+        // Several: each spoiled sample's own increment is x100.
+        let (out, spoiled, _) =
+            inject(&wheels, &"wheel-outlier@0.1x3".parse().unwrap(), Stage::Log);
+        assert_eq!(spoiled.len(), 3);
+        for k in 5..8 {
+            let (a, b) = (&out[k - 1].sample, &out[k].sample);
+            assert_eq!((b.left - a.left, b.right - a.right), (1000, 500), "{k}");
+        }
+        assert_eq!(out[8].sample.left, 80);
         assert_eq!(FaultKind::WheelOutlier.stage(), Stage::Log);
     }
 
