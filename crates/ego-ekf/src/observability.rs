@@ -75,7 +75,7 @@
 use nalgebra::SVector;
 
 use crate::covariance::RESET_MIN_ANGLE;
-use crate::state::{CP, CTH, Covariance, ErrorState, G, NominalState, P, Quat, TH, V, Vec3};
+use crate::state::{CP, CTH, Covariance, DIM, ErrorState, G, NominalState, P, Quat, TH, V, Vec3};
 use crate::update::Measurement;
 
 /// Largest variance of the heading, rad^2, at which [`reanchor`] carries
@@ -138,8 +138,39 @@ pub fn reanchor(p: &mut Covariance, before: &NominalState, after: &NominalState)
     if s.is_nan() || s > MAX_REANCHOR_HEADING_VAR {
         return;
     }
-    let db = d * b.transpose();
-    *p += db + db.transpose() + d * d.transpose() * s;
+    // `P += d b^T + b d^T + s d d^T` entry by entry: no DIM x DIM
+    // temporaries on the stack, and symmetric bit for bit (each entry's
+    // terms are the mirror entry's, swapped).
+    // Column-major slices: plain loops the compiler keeps tight. `d` is
+    // zero on the biases and the robot states, so a column whose `d_j` is
+    // zero only gains `d_i b_j` on the rows where `d_i` is not (the full
+    // expression there, with its zero terms dropped: still the mirror of
+    // the full expression in column `i`).
+    let (d, b) = (d.as_slice(), b.as_slice());
+    let mut rows = [0usize; DIM];
+    let mut k = 0;
+    for (i, di) in d.iter().enumerate() {
+        if *di != 0.0
+            && let Some(r) = rows.get_mut(k)
+        {
+            *r = i;
+            k += 1;
+        }
+    }
+    let rows = rows.get(..k).unwrap_or(&[]);
+    for (col, (dj, bj)) in p.as_mut_slice().chunks_exact_mut(DIM).zip(d.iter().zip(b)) {
+        if *dj == 0.0 {
+            for &i in rows {
+                if let (Some(c), Some(di)) = (col.get_mut(i), d.get(i)) {
+                    *c += di * bj;
+                }
+            }
+        } else {
+            for ((c, di), bi) in col.iter_mut().zip(d).zip(b) {
+                *c += (di * bj + bi * dj) + s * (di * dj);
+            }
+        }
+    }
 }
 
 /// Makes `m` blind to the heading direction at `x`, the estimate it was
