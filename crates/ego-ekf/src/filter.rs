@@ -14,13 +14,13 @@ use crate::floor::FloorFusion;
 use crate::flow::{FlowFused, FlowFusion};
 use crate::gap::{GapOdometry, bridge_gap, bridge_with_wheels, wheel_geometry};
 use crate::grip::GripParams;
-use crate::impact::{ImpactWatch, horizontal_deviation};
+use crate::impact::{self, ImpactWatch};
 use crate::init::{Initialiser, StillStart};
 use crate::observability;
 use crate::plausibility::PlausibilityCheck;
 use crate::propagate::{
     Transition, process_noise, propagate_covariance, propagate_covariance_clone_decoupled,
-    propagate_nominal, vertical_deviation,
+    propagate_nominal, world_acceleration,
 };
 use crate::recovery::{self, Evidence, FlowWitness, RecoveryCounts, Refutation, Verdict};
 use crate::state::{CLONE, Covariance, ErrorState, NominalState, P, Quat, TH, V, Vec3};
@@ -533,11 +533,6 @@ impl EgoEkf {
         }
         propagate_nominal(&mut self.x, &accel, &gyro, dt);
         self.propagate_covariance(&f, &q);
-        self.impact.step(
-            &self.config.recovery,
-            sample.t(),
-            horizontal_deviation(&self.x, &accel),
-        );
 
         if !still && self.clone == CloneUse::Still {
             // Nothing reads the clone until the next still step or camera
@@ -569,12 +564,16 @@ impl EgoEkf {
             );
             self.reanchor(before.as_ref());
         }
+        // The body's acceleration: the jolts' vertical part, the impacts' horizontal.
+        let a_w = world_acceleration(&self.x, &accel);
+        self.impact
+            .step(&self.config.recovery, sample.t(), impact::horizontal(&a_w));
         Ok(ImuStep {
             t: sample.t(),
             dt,
             gyro,
             accel,
-            vertical_deviation: vertical_deviation(&self.x, &accel),
+            vertical_deviation: libm::fabsf(a_w.z),
             still,
         })
     }

@@ -31,13 +31,12 @@
 use vslam_core::Timestamp;
 
 use crate::config::RecoveryConfig;
-use crate::state::{NominalState, Vec3};
+use crate::state::Vec3;
 
-/// The gravity-compensated horizontal specific force
-/// `|(R (a_m - a_b) + g)_xy|`, m/s^2 (world frame): the drive's acceleration
-/// in level motion, large when the robot hits something.
-pub fn horizontal_deviation(x: &NominalState, accel: &Vec3) -> f32 {
-    let a = x.q_wb * accel + x.gravity;
+/// The horizontal part `|a_xy|` of the world-frame acceleration `a`
+/// ([`crate::propagate::world_acceleration`]), m/s^2: the drive's
+/// acceleration in level motion, large when the robot hits something.
+pub fn horizontal(a: &Vec3) -> f32 {
     libm::sqrtf(a.x * a.x + a.y * a.y)
 }
 

@@ -589,8 +589,14 @@ pub fn propagate_covariance_dense(p: &mut Covariance, f: &Transition, q: &ErrorS
     *p = fd * *p * fd.transpose() + Covariance::from_diagonal(q);
 }
 
+/// The gravity-compensated specific force `R (a_m - a_b) + g` in the world
+/// frame, m/s^2: the body's acceleration.
+pub fn world_acceleration(x: &NominalState, accel: &Vec3) -> Vec3 {
+    x.q_wb * accel + x.gravity
+}
+
 /// The gravity-compensated vertical specific force `|(R (a_m - a_b) + g)_z|`,
 /// m/s^2: zero at rest and in level motion, large on bumps and thresholds.
 pub fn vertical_deviation(x: &NominalState, accel: &Vec3) -> f32 {
-    libm::fabsf((x.q_wb * accel + x.gravity).z)
+    libm::fabsf(world_acceleration(x, accel).z)
 }
