@@ -562,12 +562,22 @@ pub struct ImuConfig {
     /// Hesch et al. 2014): the transition after an update and the
     /// covariance after each update carry the heading direction from the
     /// estimate the update was blind to, and the zero-velocity update's
-    /// rows are projected to be blind to it. Off by default: it makes the
-    /// heading consistent (`tests/fused_consistency.rs`,
-    /// `tests/yaw_unobservable.rs`) and halves the chaos hour's error, but
-    /// the one-hour soak without a camera then keeps a heading variance that
-    /// outgrows its bounds (see the module doc of [`crate::observability`]).
+    /// rows are projected to be blind to it; the heading's standard
+    /// deviation is held at [`ImuConfig::max_heading_std`]. On by default:
+    /// the filter no longer learns its absolute heading from its own
+    /// corrections (`tests/yaw_unobservable.rs`), and over an hour the
+    /// heading drifts less (the measurements are in the module doc of
+    /// [`crate::observability`]).
     pub constrain_heading: bool,
+    /// With [`ImuConfig::constrain_heading`]: the largest standard
+    /// deviation of the heading about gravity the covariance keeps, rad
+    /// (above it the heading's direction is scaled back; infinite keeps any,
+    /// up to [`crate::observability::MAX_REANCHOR_HEADING_VAR`]). Nothing
+    /// measures the absolute heading, so its variance grows for as long as
+    /// the robot drives, and with it, in `f32`, the rounding of the relative
+    /// yaw and position the clone, the wheels and the camera measure (the
+    /// difference of two large, nearly equal entries). Default 0.1 rad.
+    pub max_heading_std: f32,
     /// Refuse readings the robot cannot have: a rate jump beyond its
     /// angular acceleration, an output frozen bit for bit
     /// ([`crate::plausibility`]); `None` integrates every reading within
@@ -591,7 +601,8 @@ impl ImuConfig {
         accel_max: 160.0,
         estimate_gyro_scale: false,
         gyro_scale_random_walk: 1.0e-5,
-        constrain_heading: false,
+        constrain_heading: true,
+        max_heading_std: 0.1,
         plausibility: Some(ImuPlausibility::DEFAULT),
     };
 }
@@ -879,6 +890,10 @@ impl FilterConfig {
         }
         // A minimum grip above every grip (or infinite) never trusts the wheels.
         let min_grip_ok = self.recovery.wheel_min_grip >= 0.0;
+        // An infinite bound keeps any heading variance; NaN or zero none.
+        if self.imu.max_heading_std.is_nan() || self.imu.max_heading_std <= 0.0 {
+            return Err(ConfigError::BadNoise);
+        }
         // NaN or a non-positive level would call every step an impact.
         if self.recovery.impact_accel.is_nan() || self.recovery.impact_accel <= 0.0 {
             return Err(ConfigError::BadLimit);
@@ -962,6 +977,21 @@ mod tests {
             ..c
         };
         assert_eq!(with(lost).check(), Err(ConfigError::BadGeometry));
+    }
+
+    #[test]
+    fn a_heading_bound_must_leave_some_spread() {
+        let with = |max_heading_std| FilterConfig {
+            imu: ImuConfig {
+                max_heading_std,
+                ..ImuConfig::DEFAULT
+            },
+            ..FilterConfig::default()
+        };
+        assert_eq!(with(f32::INFINITY).check(), Ok(()));
+        for bad in [0.0, -0.1, f32::NAN] {
+            assert_eq!(with(bad).check(), Err(ConfigError::BadNoise), "{bad}");
+        }
     }
 
     #[test]

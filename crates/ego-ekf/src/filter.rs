@@ -638,7 +638,13 @@ impl EgoEkf {
             || before.clone_p_wb != x.clone_p_wb
             || before.clone_q_wb != x.clone_q_wb
         {
-            observability::reanchor(&mut self.p, before, x);
+            let clone = if self.clone == CloneUse::Due {
+                observability::CloneCoupling::Decoupled
+            } else {
+                observability::CloneCoupling::Coupled
+            };
+            let max_std = self.config.imu.max_heading_std;
+            observability::reanchor(&mut self.p, before, x, clone, max_std * max_std);
         }
     }
 

@@ -15,7 +15,8 @@
 
 use ego_ekf::GripParams;
 use ego_ekf::config::ZuptConfig;
-use ego_ekf::observability::{project, reanchor};
+use ego_ekf::covariance::decouple_clone;
+use ego_ekf::observability::{CloneCoupling, project, reanchor};
 use ego_ekf::propagate::{Transition, propagate_nominal};
 use ego_ekf::state::{
     CP, CTH, Covariance, DIM, ErrorState, G, NominalState, P, Quat, STANDARD_GRAVITY, TH, V, Vec3,
@@ -195,7 +196,13 @@ fn reanchoring_carries_the_heading_direction_to_the_corrected_estimate() {
     let m = reset_direction(&yaw_direction(&before), &d_th, &d_cth);
     let mut p = Covariance::identity() * 1e-6 + m * m.transpose() * 0.01;
     let unchanged = dominant(&p);
-    reanchor(&mut p, &before, &after);
+    reanchor(
+        &mut p,
+        &before,
+        &after,
+        CloneCoupling::Coupled,
+        f32::INFINITY,
+    );
     let n_a = yaw_direction(&after).cast::<f64>().normalize();
     let moved = dominant(&p);
     let off = 1.0 - moved.dot(&n_a).abs();
@@ -203,6 +210,100 @@ fn reanchoring_carries_the_heading_direction_to_the_corrected_estimate() {
     println!("1 - |cos| to N(after): reanchored {off:.2e}, not {off_unchanged:.2e}");
     assert!(off < 1e-6, "{off:.2e}");
     assert!(off_unchanged > 1e-5, "{off_unchanged:.2e}");
+    assert!((p - p.transpose()).amax() == 0.0);
+}
+
+/// An update's correction, as in the test above.
+fn corrected(before: &NominalState) -> NominalState {
+    let mut after = *before;
+    after.p_wb += Vec3::new(0.01, -0.02, 0.003);
+    after.v_wb += Vec3::new(0.004, -0.003, 0.001);
+    after.q_wb = before.q_wb * Quat::from_scaled_axis(Vec3::new(0.002, -0.001, 0.003));
+    after
+}
+
+#[test]
+fn reanchoring_leaves_a_decoupled_clone_decoupled() {
+    // While the clone waits for its next use its rows are zero outside its
+    // own block, and the propagation skips them: the re-anchoring must not
+    // couple it (its part of `N` is the pose's when it is copied), even
+    // when the clone's estimate moved.
+    let before = state();
+    let mut after = corrected(&before);
+    after.clone_p_wb += Vec3::new(0.002, 0.001, 0.0);
+    let m = yaw_direction(&before);
+    let mut p = Covariance::identity() * 1e-6 + m * m.transpose() * 0.01;
+    decouple_clone(&mut p);
+    let mut coupled = p;
+    reanchor(
+        &mut p,
+        &before,
+        &after,
+        CloneCoupling::Decoupled,
+        f32::INFINITY,
+    );
+    reanchor(
+        &mut coupled,
+        &before,
+        &after,
+        CloneCoupling::Coupled,
+        f32::INFINITY,
+    );
+    let outside = |p: &Covariance| {
+        (0..CP)
+            .flat_map(|i| (CP..DIM).map(move |j| (i, j)))
+            .map(|(i, j)| p[(i, j)].abs().max(p[(j, i)].abs()))
+            .fold(0.0f32, f32::max)
+    };
+    println!(
+        "clone rows outside its block: decoupled {:.2e}, as if coupled {:.2e}",
+        outside(&p),
+        outside(&coupled)
+    );
+    assert_eq!(outside(&p), 0.0);
+    assert!(outside(&coupled) > 1e-6);
+    // The rest moved as with the clone coupled.
+    let rest = (p - coupled).fixed_view::<{ CP }, { CP }>(0, 0).amax();
+    assert!(rest < 1e-9, "{rest:.2e}");
+}
+
+/// The bound of the test below, rad^2 (0.2 rad).
+const MAX_HEADING_VAR: f32 = 0.04;
+
+#[test]
+fn the_heading_variance_is_held_at_its_bound() {
+    // A heading known to 0.5 rad (nothing measures it) comes back to the
+    // bound, along `N` only: what the measurements see is unchanged.
+    let before = state();
+    let after = corrected(&before);
+    let m = reset_direction(&yaw_direction(&before), &Vec3::zeros(), &Vec3::zeros());
+    let other = ErrorState::from_fn(|i, _| if i == V || i == TH + 1 { 0.01 } else { 0.0 });
+    let mut p =
+        Covariance::identity() * 1e-6 + m * m.transpose() * 0.25 + other * other.transpose();
+    reanchor(
+        &mut p,
+        &before,
+        &after,
+        CloneCoupling::Coupled,
+        MAX_HEADING_VAR,
+    );
+    let n_a = yaw_direction(&after);
+    let u = n_a.fixed_rows::<3>(TH) / n_a.fixed_rows::<3>(TH).norm_squared();
+    let s = (u.transpose() * p.fixed_view::<3, 3>(TH, TH) * u).x;
+    println!("heading variance after: {s:.5} rad^2 (bound {MAX_HEADING_VAR})");
+    assert!((s - MAX_HEADING_VAR).abs() < 1e-4 * MAX_HEADING_VAR, "{s}");
+    // Orthogonal to the heading direction (a direction no measurement is
+    // blind to), the variance is what it was.
+    let w = other.normalize();
+    let w = w - n_a * (n_a.dot(&w) / n_a.norm_squared());
+    let before_var =
+        (w.transpose() * (Covariance::identity() * 1e-6 + other * other.transpose()) * w).x;
+    let after_var = (w.transpose() * p * w).x;
+    println!("a measured direction's variance: {before_var:.3e} -> {after_var:.3e}");
+    assert!(
+        (after_var - before_var).abs() < 0.01 * before_var,
+        "{before_var} {after_var}"
+    );
     assert!((p - p.transpose()).amax() == 0.0);
 }
 
