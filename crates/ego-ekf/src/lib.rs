@@ -10,7 +10,7 @@
 //! - [`state`]: the state and its indices, defined once;
 //! - [`propagate`]: IMU propagation, block-structured covariance;
 //!   [`observability`]: the heading about gravity kept unobservable after
-//!   updates (optional, `ImuConfig::constrain_heading`);
+//!   updates (on by default, `ImuConfig::constrain_heading`);
 //! - [`update`]: the shared gated update; [`covariance`]: reset, clone,
 //!   checks, and the velocity reset;
 //!   [`mod@reference`]: the dense textbook formulas the fast ones are tested against;
