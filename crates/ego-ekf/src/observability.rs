@@ -183,12 +183,9 @@ pub fn reanchor(
         // the clone's part of `N` is carried over when it is copied.
         d.rows_range_mut(CLONE).fill(0.0);
     }
-    let u = n_b.fixed_rows::<3>(TH).into_owned();
-    let uu = u.norm_squared();
-    if !(uu > 0.0 && uu.is_finite()) {
+    let Some(u) = attitude_weights(&n_b) else {
         return;
-    }
-    let u = u / uu;
+    };
     let Some(s) = heading_variance(p, &u) else {
         return;
     };
@@ -205,13 +202,8 @@ pub fn reanchor(
     if clone == CloneCoupling::Decoupled {
         n_a.rows_range_mut(CLONE).fill(0.0);
     }
-    let u_a = n_a.fixed_rows::<3>(TH).into_owned();
-    let uu_a = u_a.norm_squared();
-    if !(uu_a > 0.0 && uu_a.is_finite()) {
-        return;
-    }
-    let u_a = u_a / uu_a;
-    if let Some(s_a) = heading_variance(p, &u_a)
+    if let Some(u_a) = attitude_weights(&n_a)
+        && let Some(s_a) = heading_variance(p, &u_a)
         && s_a > max_heading_var
         && let Some(n) = turn_about_best_point(p, &n_a, &u_a, s_a, clone)
     {
@@ -252,6 +244,14 @@ fn turn_about_best_point(
         cp += shift;
     }
     Some(out)
+}
+
+/// The attitude part of the direction `n` over its squared norm (so that
+/// `u . n = 1` on the attitude), `None` when it is zero or not finite.
+fn attitude_weights(n: &ErrorState) -> Option<Vec3> {
+    let u = n.fixed_rows::<3>(TH).into_owned();
+    let uu = u.norm_squared();
+    (uu > 0.0 && uu.is_finite()).then(|| u / uu)
 }
 
 /// The heading's variance in `p` along the attitude direction `u`
@@ -312,12 +312,10 @@ fn rank_one_congruence(p: &mut Covariance, d: &ErrorState, u: &Vec3, s: f32) {
 /// the estimate's error.
 pub fn project<const M: usize>(m: &mut Measurement<M>, x: &NominalState) {
     let n = heading_direction(x);
-    let u = n.fixed_rows::<3>(TH).into_owned();
-    let uu = u.norm_squared();
-    if !(uu > 0.0 && uu.is_finite()) {
+    let Some(u) = attitude_weights(&n) else {
         return;
-    }
+    };
     let hn: SVector<f32, M> = m.h * n;
     let mut h_th = m.h.fixed_columns_mut::<3>(TH);
-    h_th -= hn * (u.transpose() / uu);
+    h_th -= hn * u.transpose();
 }
