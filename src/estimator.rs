@@ -511,12 +511,18 @@ impl<
         }
     }
 
-    /// Counts a read of `stream` that failed before it produced a sample (a
-    /// bus error, a parity or product-id check): the driver's error, turned
-    /// into its reason, lands in the stream's tally like a rejected sample,
-    /// so the counts hold every read. The state is not touched.
-    pub fn reject_read(&mut self, stream: Stream, reason: Reject) {
+    /// Counts a read of `stream` at `t` that failed before it produced a
+    /// sample (a bus error, a parity or product-id check, a counter jump):
+    /// the driver's error, turned into its reason, lands in the stream's
+    /// tally like a rejected sample, so the counts hold every read. The
+    /// filter's state is not touched; a failed wheel read breaks the count
+    /// stream, so no odometry step spans `t`
+    /// ([`DiffDriveOdometry::read_failed`]).
+    pub fn reject_read(&mut self, stream: Stream, t: Timestamp, reason: Reject) {
         self.counts[stream].rejected_one(reason);
+        if stream == Stream::Wheel {
+            self.odometry.read_failed(t);
+        }
     }
 
     /// Processes the next sample whose ordering window has passed (all of

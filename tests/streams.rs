@@ -115,7 +115,7 @@ fn every_sample_of_every_stream_ends_in_one_count_of_its_stream() {
                         Err(Reject::NotReady)
                     ));
                 }
-                Entry::NotTaken => est.reject_read(s, Reject::Bus),
+                Entry::NotTaken => est.reject_read(s, Timestamp(t), Reject::Bus),
             }
             fed[s] += 1;
             drain(&mut est, &mut polled);
@@ -123,7 +123,7 @@ fn every_sample_of_every_stream_ends_in_one_count_of_its_stream() {
     }
     // A failed read of every stream lands in that stream's counts too.
     for s in Stream::ALL {
-        est.reject_read(s, Reject::Integrity);
+        est.reject_read(s, Timestamp(500_000_000), Reject::Integrity);
         fed[s] += 1;
     }
     est.finish();

@@ -19,6 +19,7 @@ use traction::ego_ekf::ImuPlausibility;
 use traction::estimator::{Estimator, EstimatorConfig, Processed};
 use traction::vslam_core::robot::RobotDescription;
 use traction::vslam_core::sensors::{RawImuSample, WheelTicks};
+use traction::vslam_core::{Reject, Stream};
 use traction::{Estimate, Timestamp};
 
 /// The estimator: built at compile time (no estimator-sized value passes
@@ -44,13 +45,16 @@ fn read_imu(t: Timestamp) -> RawImuSample {
     }
 }
 
-/// A stand-in encoder read at `t`: the wheels not turning.
-fn read_wheels(t: Timestamp) -> WheelTicks {
-    WheelTicks {
+/// A stand-in encoder read at `t`: the wheels not turning. A real board
+/// reads a `traction::wheel_odom::WheelPair` and turns its error into a
+/// reason (SPI: `Reject::Bus`; parity, error flag: `Reject::Integrity`; a
+/// refused counter jump: `Reject::OutOfRange`).
+fn read_wheels(t: Timestamp) -> Result<WheelTicks, Reject> {
+    Ok(WheelTicks {
         t,
         left: 0,
         right: 0,
-    }
+    })
 }
 
 /// What the application does with each estimate (here: nothing).
@@ -82,7 +86,11 @@ fn main() -> ! {
             let mut est = ESTIMATOR.borrow(cs).borrow_mut();
             est.offer_imu(read_imu(t));
             if step.is_multiple_of(5) {
-                est.offer_wheel(read_wheels(t));
+                match read_wheels(t) {
+                    Ok(ticks) => est.offer_wheel(ticks),
+                    // Counted with its reason; no odometry step spans it.
+                    Err(reason) => est.reject_read(Stream::Wheel, t, reason),
+                }
             }
             while let Some(p) = est.poll() {
                 // Each sample ends fused, gated or rejected with a reason.

@@ -325,6 +325,14 @@ fn encoder_wrap_around_at_high_speed() {
 }
 
 #[test]
+fn encoder_wrap_while_the_imu_is_stuck() {
+    // The IMU refused, the wheels bridge the gap: the first wheel sample
+    // after the wrap must not span the failed reads (the left's counts held
+    // across them would read as a slow wheel and a turn).
+    check_recovers("imu-stuck@4.03+0.74,wheel-wrap@4.275+0.15");
+}
+
+#[test]
 fn spi_errors() {
     check_recovers("wheel-spi@4x3,flow-spi@4.5x3");
 }

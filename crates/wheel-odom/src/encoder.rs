@@ -236,11 +236,20 @@ impl<L, R> WheelPair<L, R> {
 
 impl<L: CumulativeEncoder, R: CumulativeEncoder> WheelEncoderSource for WheelPair<L, R> {
     type Error = PairError<L::Error, R::Error>;
-    /// Reads left then right; a failure of either is the pair's failure
-    /// (the other wheel's extension state has still advanced).
+    /// Reads left then right, both on every call, so that each wheel's
+    /// counter extension follows its wheel read by read whatever the other
+    /// does (a wheel left unread for a while would see its accumulated
+    /// motion refused as a jump). A failure of either is the pair's failure,
+    /// the left's reported first; the counts may not continue across it, and
+    /// the odometry anchors afresh after it
+    /// (`DiffDriveOdometry::read_failed`).
     fn read_ticks(&mut self, t: Timestamp) -> Result<WheelTicks, Self::Error> {
-        let left = self.left.read_count().map_err(PairError::Left)?;
-        let right = self.right.read_count().map_err(PairError::Right)?;
-        Ok(WheelTicks { t, left, right })
+        let left = self.left.read_count();
+        let right = self.right.read_count();
+        Ok(WheelTicks {
+            t,
+            left: left.map_err(PairError::Left)?,
+            right: right.map_err(PairError::Right)?,
+        })
     }
 }

@@ -12,7 +12,8 @@
 //! - [`encoder`]: encoders as cumulative counts and a pair of them as
 //!   `vslam-core`'s `WheelEncoderSource`;
 //! - [`arc`] and [`odometry`]: exact arc integration of a differential drive,
-//!   wheel rates and body velocity, time validated and outcomes counted.
+//!   wheel rates and body velocity, time validated and outcomes counted; no
+//!   step spans a failed encoder read ([`read_breaks`]).
 //!
 //! # Example: one AS5047P angle read over SPI
 //!
@@ -61,6 +62,7 @@ pub mod counter;
 pub mod encoder;
 pub mod odometry;
 pub mod quadrature;
+pub mod read_breaks;
 pub mod registers;
 
 pub use as5047p::{As5047p, As5047pError, Diagnostics, ErrorFlags};

@@ -23,8 +23,14 @@
 //!   next gap;
 //! - [`Reject::NonFinite`]: cannot happen with checked parameters; kept as a
 //!   guard.
+//!
+//! A failed encoder read ([`DiffDriveOdometry::read_failed`]) may leave the
+//! counts discontinuous (a counter extension that refused a jump holds its
+//! position), so no step spans it: the first sample after it anchors the
+//! stream afresh, like the first sample ([`crate::read_breaks`]).
 
 use crate::arc::integrate_arc;
+use crate::read_breaks::ReadBreaks;
 use core::fmt;
 use vslam_core::geometry::Vec3;
 use vslam_core::kinematics::rim;
@@ -210,6 +216,7 @@ pub struct DiffDriveOdometry {
     clock: SampleClock,
     last: Option<WheelTicks>,
     last_rates: Option<RawWheelRates>,
+    breaks: ReadBreaks,
     counts: SampleCounts,
 }
 
@@ -221,6 +228,7 @@ impl DiffDriveOdometry {
             clock: SampleClock::new(params.max_step_ns),
             last: None,
             last_rates: None,
+            breaks: ReadBreaks::new(),
             counts: SampleCounts::new(),
         }
     }
@@ -245,6 +253,14 @@ impl DiffDriveOdometry {
         self.clock.reset();
         self.last = None;
         self.last_rates = None;
+        self.breaks.clear();
+    }
+
+    /// An encoder read at `t` failed (the caller counts it): no step of
+    /// counts spans `t`; the first sample after it anchors afresh (module
+    /// docs). Wheel rates are not cumulative and do not need it.
+    pub fn read_failed(&mut self, t: Timestamp) {
+        self.breaks.mark(t);
     }
 
     /// Takes one sample: `Ok(None)` for the first (anchor), `Ok(Some(step))`
@@ -273,6 +289,12 @@ impl DiffDriveOdometry {
             }
             (Err(reason), _) => return Err(reason),
         };
+        if self.breaks.take(last.t, ticks.t) {
+            // The counts may not continue across a failed read: anchor afresh.
+            self.clock = clock;
+            self.last = Some(ticks);
+            return Ok(None);
+        }
         let dl = ticks
             .left
             .checked_sub(last.left)

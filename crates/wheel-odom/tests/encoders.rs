@@ -50,15 +50,20 @@ fn two_as5047p_unwrap_across_the_zero_crossing() {
 #[test]
 fn as5047p_impossible_jump_is_a_typed_error() {
     let mut left_bus = angles(&[0, 5_000, 5_100]).mock();
-    let mut right_bus = angles(&[0]).mock(); // not read after the left failure
+    // Read on every pair read, the left's failure included.
+    let mut right_bus = angles(&[0, 3_000, 6_000]).mock();
     let left = As5047pEncoder::new(
         As5047p::new(left_bus.clone()),
         Polarity::Normal,
         Some(1_000),
     )
     .unwrap();
-    let right =
-        As5047pEncoder::new(As5047p::new(right_bus.clone()), Polarity::Normal, None).unwrap();
+    let right = As5047pEncoder::new(
+        As5047p::new(right_bus.clone()),
+        Polarity::Normal,
+        Some(4_096),
+    )
+    .unwrap();
     let mut pair = WheelPair::new(left, right);
     pair.read_ticks(Timestamp(0)).unwrap();
     assert_eq!(
@@ -68,8 +73,18 @@ fn as5047p_impossible_jump_is_a_typed_error() {
         })))
     );
     assert_eq!(pair.left.extender().jumps(), 1);
-    // Re-anchored on 5000: +100.
-    assert_eq!(pair.left.read_count(), Ok(100));
+    // The left re-anchored on 5000: +100. The right kept step through the
+    // left's failure: 6000 counts from its start in two steps of 3000 (one
+    // of 6000 would have been refused as a jump).
+    assert_eq!(
+        pair.read_ticks(Timestamp(2)),
+        Ok(WheelTicks {
+            t: Timestamp(2),
+            left: 100,
+            right: 6_000
+        })
+    );
+    assert_eq!(pair.right.extender().jumps(), 0);
     left_bus.done();
     right_bus.done();
 }

@@ -139,6 +139,32 @@ fn impossible_jump_is_rejected_and_the_anchor_kept() {
 }
 
 #[test]
+fn no_step_spans_a_failed_read() {
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    o.update(ticks(20, 50, 50)).unwrap().unwrap();
+    // The reads at 40 and 60 ms failed; the left's counter extension held
+    // its position across them, so the counts at 80 ms miss 40 ms of the
+    // left's motion: no step from 20 ms, the sample anchors afresh.
+    o.read_failed(Timestamp(40 * MS));
+    o.read_failed(Timestamp(60 * MS));
+    assert_eq!(o.update(ticks(80, 75, 150)), Ok(None));
+    assert_eq!(o.last(), Some(ticks(80, 75, 150)));
+    let s = o.update(ticks(100, 125, 200)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(80 * MS));
+    assert!(close(s.delta.dyaw, 0.0, 1e-7));
+    // A failure reported while an older sample still waits (in the caller's
+    // ordering window) breaks the step after it, not the older one.
+    o.read_failed(Timestamp(130 * MS));
+    assert!(o.update(ticks(120, 175, 250)).unwrap().is_some());
+    assert_eq!(o.update(ticks(140, 400, 400)), Ok(None));
+    assert!(o.update(ticks(160, 450, 450)).unwrap().is_some());
+    // Every sample counted: two anchors after breaks count as fused, like
+    // the first.
+    assert_eq!(o.counts().fused(), 7);
+}
+
+#[test]
 fn parameters_are_checked() {
     assert_eq!(
         DiffDriveParams::new(0, R, R, BASE, 1.0, MS),

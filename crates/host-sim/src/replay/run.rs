@@ -297,7 +297,7 @@ impl Collected {
 
     /// A read that produced no sample.
     fn failed(&mut self, est: &mut Estimator<'_>, f: &FailedRead) {
-        est.reject_read(f.stream, f.reason);
+        est.reject_read(f.stream, f.t, f.reason);
         self.log((f.stream, f.t, f.reason.name()));
     }
 
@@ -381,7 +381,7 @@ impl Collected {
         let outcome = match tracker.push(t, frame) {
             Ok(pair) => est.process_flow_frame(t, pair.as_ref()),
             Err(_) => {
-                est.reject_read(Stream::FlowFrame, Reject::OutOfOrder);
+                est.reject_read(Stream::FlowFrame, t, Reject::OutOfOrder);
                 Err(Reject::OutOfOrder)
             }
         };
