@@ -571,7 +571,8 @@ pub struct ImuConfig {
     pub constrain_heading: bool,
     /// With [`ImuConfig::constrain_heading`]: the largest standard
     /// deviation of the heading about gravity the covariance keeps, rad
-    /// (above it the heading's direction is scaled back; infinite keeps any,
+    /// (the heading's direction is scaled back to it once its variance is
+    /// [`crate::observability::HEADING_HOLD_SLACK`] times the bound's; infinite keeps any,
     /// up to [`crate::observability::MAX_REANCHOR_HEADING_VAR`]). Nothing
     /// measures the absolute heading, so its variance grows for as long as
     /// the robot drives, and with it, in `f32`, the rounding of the relative

@@ -16,7 +16,7 @@
 use ego_ekf::GripParams;
 use ego_ekf::config::ZuptConfig;
 use ego_ekf::covariance::decouple_clone;
-use ego_ekf::observability::{CloneCoupling, project, reanchor};
+use ego_ekf::observability::{CloneCoupling, HEADING_HOLD_SLACK, project, reanchor};
 use ego_ekf::propagate::{Transition, propagate_nominal};
 use ego_ekf::state::{
     CP, CTH, Covariance, DIM, ErrorState, G, NominalState, P, Quat, STANDARD_GRAVITY, TH, V, Vec3,
@@ -305,6 +305,32 @@ fn the_heading_variance_is_held_at_its_bound() {
         "{before_var} {after_var}"
     );
     assert!((p - p.transpose()).amax() == 0.0);
+}
+
+#[test]
+fn a_heading_variance_within_the_slack_is_left_alone() {
+    // 5 % above the bound (inside `HEADING_HOLD_SLACK`): not scaled back
+    // yet; 15 % above: back at the bound.
+    let before = state();
+    let after = corrected(&before);
+    let m = reset_direction(&yaw_direction(&before), &Vec3::zeros(), &Vec3::zeros());
+    let n_a = yaw_direction(&after);
+    let u = n_a.fixed_rows::<3>(TH) / n_a.fixed_rows::<3>(TH).norm_squared();
+    let held = |over: f32| {
+        let mut p = Covariance::identity() * 1e-6 + m * m.transpose() * (MAX_HEADING_VAR * over);
+        reanchor(
+            &mut p,
+            &before,
+            &after,
+            CloneCoupling::Coupled,
+            MAX_HEADING_VAR,
+        );
+        (u.transpose() * p.fixed_view::<3, 3>(TH, TH) * u).x / MAX_HEADING_VAR
+    };
+    let (within, beyond) = (held(1.05), held(1.15));
+    println!("heading variance over the bound: 1.05 -> {within:.4}, 1.15 -> {beyond:.4}");
+    assert!(within > 1.04 && within < HEADING_HOLD_SLACK, "{within}");
+    assert!((beyond - 1.0).abs() < 1e-4, "{beyond}");
 }
 
 #[test]
