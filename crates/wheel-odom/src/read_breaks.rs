@@ -36,10 +36,7 @@ impl ReadBreaks {
     pub fn mark(&mut self, t: Timestamp) {
         self.pending = Some(match self.pending {
             None => (t, t),
-            Some((first, last)) => (
-                if t < first { t } else { first },
-                if t > last { t } else { last },
-            ),
+            Some((first, last)) => (first.min(t), last.max(t)),
         });
     }
 
