@@ -267,8 +267,18 @@ fn reanchoring_leaves_a_decoupled_clone_decoupled() {
     assert!(rest < 1e-9, "{rest:.2e}");
 }
 
-/// The bound of the test below, rad^2 (0.2 rad).
+/// The bound of the tests below, rad^2 (0.2 rad).
 const MAX_HEADING_VAR: f32 = 0.04;
+
+/// Re-anchors `p` from `before` to `after` with the heading bounded at
+/// [`MAX_HEADING_VAR`], and gives the heading's variance after it (along
+/// `N(after)`'s attitude part).
+fn held_heading_variance(p: &mut Covariance, before: &NominalState, after: &NominalState) -> f32 {
+    reanchor(p, before, after, CloneCoupling::Coupled, MAX_HEADING_VAR);
+    let n_a = yaw_direction(after);
+    let u = n_a.fixed_rows::<3>(TH) / n_a.fixed_rows::<3>(TH).norm_squared();
+    (u.transpose() * p.fixed_view::<3, 3>(TH, TH) * u).x
+}
 
 #[test]
 fn the_heading_variance_is_held_at_its_bound() {
@@ -280,21 +290,13 @@ fn the_heading_variance_is_held_at_its_bound() {
     let other = ErrorState::from_fn(|i, _| if i == V || i == TH + 1 { 0.01 } else { 0.0 });
     let mut p =
         Covariance::identity() * 1e-6 + m * m.transpose() * 0.25 + other * other.transpose();
-    reanchor(
-        &mut p,
-        &before,
-        &after,
-        CloneCoupling::Coupled,
-        MAX_HEADING_VAR,
-    );
-    let n_a = yaw_direction(&after);
-    let u = n_a.fixed_rows::<3>(TH) / n_a.fixed_rows::<3>(TH).norm_squared();
-    let s = (u.transpose() * p.fixed_view::<3, 3>(TH, TH) * u).x;
+    let s = held_heading_variance(&mut p, &before, &after);
     println!("heading variance after: {s:.5} rad^2 (bound {MAX_HEADING_VAR})");
     assert!((s - MAX_HEADING_VAR).abs() < 1e-4 * MAX_HEADING_VAR, "{s}");
     // Orthogonal to the heading direction (a direction no measurement is
     // blind to), the variance is what it was.
     let w = other.normalize();
+    let n_a = yaw_direction(&after);
     let w = w - n_a * (n_a.dot(&w) / n_a.norm_squared());
     let before_var =
         (w.transpose() * (Covariance::identity() * 1e-6 + other * other.transpose()) * w).x;
@@ -314,18 +316,9 @@ fn a_heading_variance_within_the_slack_is_left_alone() {
     let before = state();
     let after = corrected(&before);
     let m = reset_direction(&yaw_direction(&before), &Vec3::zeros(), &Vec3::zeros());
-    let n_a = yaw_direction(&after);
-    let u = n_a.fixed_rows::<3>(TH) / n_a.fixed_rows::<3>(TH).norm_squared();
     let held = |over: f32| {
         let mut p = Covariance::identity() * 1e-6 + m * m.transpose() * (MAX_HEADING_VAR * over);
-        reanchor(
-            &mut p,
-            &before,
-            &after,
-            CloneCoupling::Coupled,
-            MAX_HEADING_VAR,
-        );
-        (u.transpose() * p.fixed_view::<3, 3>(TH, TH) * u).x / MAX_HEADING_VAR
+        held_heading_variance(&mut p, &before, &after) / MAX_HEADING_VAR
     };
     let (within, beyond) = (held(1.05), held(1.15));
     println!("heading variance over the bound: 1.05 -> {within:.4}, 1.15 -> {beyond:.4}");
