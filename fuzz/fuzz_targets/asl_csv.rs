@@ -1,8 +1,9 @@
 //! ASL `data.csv` reading through `host_sim::asl::read_dataset`: the first
 //! byte picks the sensor folder (IMU, wheels, flow, camera, segmentation,
-//! ground truth, the flow sensor's raw frames), the rest is that folder's `data.csv` (for `wheel0`,
-//! counts or, after the rates header, the wheel angular-rate variant); the `sensor.yaml`
-//! next to it is valid. The first byte also picks how bad sample values are
+//! ground truth, the flow sensor's raw frames, or the wheels' failed reads), the rest is that
+//! folder's `data.csv` (for `wheel0`, counts or, after the rates header, the wheel angular-rate
+//! variant) or, for the failed reads, `wheel0/failed.csv` beside a valid `data.csv`; the
+//! `sensor.yaml` next to it is valid. The first byte also picks how bad sample values are
 //! read (`BadSamples`): refused, a read either gives strictly increasing
 //! time stamps and finite values, or an exit-2 error that names the file;
 //! passed on, the sample streams keep every row in file order (NaN,
@@ -16,37 +17,48 @@ use host_sim::asl::{
 use libfuzzer_sys::fuzz_target;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
+use traction::vslam_core::Stream;
 use traction_fuzz::scratch_dir;
 
-const SENSORS: [&str; 7] = [
-    "imu0",
-    "wheel0",
-    "flow0",
-    "cam0",
-    "seg0",
-    "state_groundtruth_estimate0",
-    "flowraw0",
+/// The sensor folder and the file the input becomes.
+const FILES: [(&str, &str); 8] = [
+    ("imu0", "data.csv"),
+    ("wheel0", "data.csv"),
+    ("flow0", "data.csv"),
+    ("cam0", "data.csv"),
+    ("seg0", "data.csv"),
+    ("state_groundtruth_estimate0", "data.csv"),
+    ("flowraw0", "data.csv"),
+    ("wheel0", "failed.csv"),
 ];
 
 const IDENTITY: [f32; 16] = [
     1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
 ];
 
-/// One dataset root per sensor, each with only that sensor's folder and a
-/// valid `sensor.yaml` (cameras get two image files, `a.png` and `b.png`).
+/// One dataset root per file, each with only that sensor's folder and a
+/// valid `sensor.yaml` (cameras get two image files, `a.png` and `b.png`;
+/// the failed reads' folder a valid `data.csv`).
 fn roots() -> &'static Vec<PathBuf> {
     static ROOTS: OnceLock<Vec<PathBuf>> = OnceLock::new();
     ROOTS.get_or_init(|| {
         let base = scratch_dir("asl");
-        SENSORS
+        FILES
             .iter()
-            .map(|s| {
-                let root = base.join(s);
+            .map(|(s, file)| {
+                let root = base.join(format!("{s}-{file}"));
                 let dir = root.join("mav0").join(s);
                 std::fs::create_dir_all(dir.join("data")).unwrap();
                 write_meta(s, &dir.join("sensor.yaml"));
                 for f in ["a.png", "b.png"] {
                     std::fs::write(dir.join("data").join(f), b"not read").unwrap();
+                }
+                if *file != "data.csv" {
+                    std::fs::write(
+                        dir.join("data.csv"),
+                        "#timestamp [ns],left [ticks],right [ticks]\n0,0,0\n",
+                    )
+                    .unwrap();
                 }
                 root
             })
@@ -115,15 +127,16 @@ fuzz_target!(|data: &[u8]| {
     let Some((&which, csv)) = data.split_first() else {
         return;
     };
-    let k = usize::from(which) % SENSORS.len();
-    let bad = if (usize::from(which) / SENSORS.len()) % 2 == 0 {
+    let k = usize::from(which) % FILES.len();
+    let bad = if (usize::from(which) / FILES.len()) % 2 == 0 {
         BadSamples::Refuse
     } else {
         BadSamples::PassOn
     };
     let strict = bad == BadSamples::Refuse;
     let root = &roots()[k];
-    let path = root.join("mav0").join(SENSORS[k]).join("data.csv");
+    let (sensor, file) = FILES[k];
+    let path = root.join("mav0").join(sensor).join(file);
     std::fs::write(&path, csv).unwrap();
     match read_dataset_with(root, bad) {
         Ok(ds) => {
@@ -160,6 +173,10 @@ fuzz_target!(|data: &[u8]| {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
                 assert!(v.iter().all(|e| e.path.is_file()));
             }
+            if strict {
+                assert!(increasing(ds.failed.iter().map(|f| f.t.0)));
+            }
+            assert!(ds.failed.iter().all(|f| f.stream == Stream::Wheel));
             if let Some(v) = &ds.groundtruth {
                 assert!(increasing(v.iter().map(|s| s.t.0)));
                 assert!(
@@ -171,10 +188,7 @@ fuzz_target!(|data: &[u8]| {
         Err(e) => {
             assert_eq!(e.exit_code(), 2);
             let msg = e.to_string();
-            assert!(
-                msg.contains("data.csv"),
-                "error does not name the file: {msg}"
-            );
+            assert!(msg.contains(file), "error does not name the file: {msg}");
         }
     }
 });

@@ -15,8 +15,10 @@
 //! Numbers: `cargo test -p host-sim --test faults -- --nocapture` prints one
 //! line per fault.
 
+use host_sim::asl::read_dataset;
 use host_sim::faults::recovery::Recovery;
 use host_sim::faults::{Expected, FaultKind, FaultPlan, Stream};
+use host_sim::replay::replay;
 use host_sim::simulate::{FaultRun, simulate_faults};
 
 use host_sim::sim::scenario::Scenario;
@@ -330,6 +332,44 @@ fn encoder_wrap_while_the_imu_is_stuck() {
     // after the wrap must not span the failed reads (the left's counts held
     // across them would read as a slow wheel and a turn).
     check_recovers("imu-stuck@4.03+0.74,wheel-wrap@4.275+0.15");
+}
+
+#[test]
+fn a_replayed_log_breaks_the_odometry_where_its_reads_failed() {
+    // The log keeps the drivers' failed reads (`mav0/wheel0/failed.csv`):
+    // replaying it gives the run's estimate. Without them the first wheel
+    // row after the wrap is a step across the failed reads, with the left's
+    // counts held through them: a turn the robot did not make, while the
+    // wheels bridge the refused IMU.
+    let plan_text = "imu-stuck@4.03+0.74,wheel-wrap@4.275+0.15";
+    let dir = std::env::temp_dir().join(format!("host-sim-faults-{}-logged", std::process::id()));
+    let plan: FaultPlan = plan_text.parse().unwrap();
+    let run = simulate_faults(&scenario(), SEED, &dir, false, &plan).unwrap();
+    let root = dir.join("dataset");
+    let mut ds = read_dataset(&root).unwrap();
+    let wheel_failures = ds
+        .failed
+        .iter()
+        .filter(|f| f.stream == Stream::Wheel)
+        .count();
+    assert!(wheel_failures > 0, "{:?}", ds.failed);
+    let replayed = replay(&ds, &root, false).unwrap();
+    ds.failed.clear();
+    let cut = replay(&ds, &root, false).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(replayed.ekf, run.output.ekf);
+    let end = run.results.iter().map(|r| r.window_end_ns).max().unwrap();
+    let judge = |ekf: &[host_sim::tum::TumPose]| {
+        Recovery::judge((ekf, &run.truth), (&free().output.ekf, &free().truth), end).unwrap()
+    };
+    let (with, without) = (judge(&replayed.ekf), judge(&cut.ekf));
+    eprintln!(
+        "{plan_text}: replayed {:.3} m, without failed.csv {:.3} m, bound {:.3} m",
+        with.faulted,
+        without.faulted,
+        with.bound()
+    );
+    assert!(with.recovered() && !without.recovered());
 }
 
 #[test]

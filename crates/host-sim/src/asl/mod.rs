@@ -12,8 +12,14 @@
 //! | `flowraw0` | `#timestamp [ns],filename,shutter` (the flow sensor's raw 35x35 frames, one 8-bit gray PNG per grab in `data/`; the shutter register at the grab; `sensor.yaml` as `flow0`'s, `rate_hz` the grab rate) |
 //! | `cam0`, `seg0`, `cam1` | `#timestamp [ns],filename` (images in `data/`) |
 //! | `state_groundtruth_estimate0` | the 17 EuRoC ground-truth columns |
+//! | `imu0`, `wheel0`, `flow0`: `failed.csv` (optional, beside `data.csv`) | `#timestamp [ns],reason`: reads that failed before they produced a sample (`bus`, `integrity`, any [`Reject`] name), as the driver reported them |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
+//! A failed read leaves no row in `data.csv`, and a wheel read that failed
+//! breaks the count stream: the next row's counts are anchored afresh, not
+//! a step from the row before the failure. `failed.csv` keeps those reads,
+//! so that a replay counts them and breaks the odometry where the recording
+//! robot did ([`Dataset::failed`]).
 //!
 //! Syntax errors (a wrong column count, text that is not a number, a
 //! missing file) are errors naming the file and line. Sample values that
@@ -36,8 +42,8 @@ pub use meta::{CameraMeta, FlowMeta, ImuMeta, SegMeta, WheelMeta};
 
 use crate::error::CliError;
 use std::path::{Path, PathBuf};
-use vslam_core::Timestamp;
 use vslam_core::sensors::{FlowSample, RawImuSample, RawWheelRates, WheelTicks};
+use vslam_core::{Reject, Stream, Timestamp};
 
 /// Header of `imu0/data.csv`.
 pub const IMU_HEADER: &str = "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]";
@@ -52,6 +58,27 @@ pub const FLOW_HEADER: &str = "#timestamp [ns],delta_x [counts],delta_y [counts]
 pub const FLOWRAW_HEADER: &str = "#timestamp [ns],filename,shutter";
 /// Header of `cam0/data.csv` and `seg0/data.csv`.
 pub const IMAGE_HEADER: &str = "#timestamp [ns],filename";
+/// Header of a sensor folder's `failed.csv` (reads that failed).
+pub const FAILED_HEADER: &str = "#timestamp [ns],reason";
+/// The sensor folders that may hold a `failed.csv`, with their streams.
+pub const FAILED_STREAMS: [(&str, Stream); 3] = [
+    ("imu0", Stream::Imu),
+    ("wheel0", Stream::Wheel),
+    ("flow0", Stream::Flow),
+];
+
+/// A read that failed before it produced a sample, as the log recorded it
+/// (`mav0/<sensor>/failed.csv`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoggedFailure {
+    /// When the read was made.
+    pub t: Timestamp,
+    /// The stream that lost the sample.
+    pub stream: Stream,
+    /// The driver's error, as its reason.
+    pub reason: Reject,
+}
+
 /// Header of `state_groundtruth_estimate0/data.csv`.
 pub const GROUNDTRUTH_HEADER: &str = "#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]";
 
@@ -116,6 +143,9 @@ pub struct Dataset {
     pub groundtruth: Option<Vec<GroundTruth>>,
     /// `labels.yaml`, when present.
     pub labels: Option<Labels>,
+    /// Reads that failed (the sensor folders' `failed.csv`), by stream in
+    /// [`FAILED_STREAMS`] order, each in file order.
+    pub failed: Vec<LoggedFailure>,
 }
 
 impl Dataset {
@@ -187,6 +217,43 @@ pub fn read_dataset(root: &Path) -> Result<Dataset, CliError> {
 /// Reads a dataset folder (the folder that contains `mav0/`), bad sample
 /// values treated as `bad` says.
 pub fn read_dataset_with(root: &Path, bad: BadSamples) -> Result<Dataset, CliError> {
+    let mut ds = read_streams(root, bad)?;
+    ds.failed = read_failed(root, bad)?;
+    Ok(ds)
+}
+
+/// The sensor folders' `failed.csv` ([`FAILED_HEADER`]), where present.
+fn read_failed(root: &Path, bad: BadSamples) -> Result<Vec<LoggedFailure>, CliError> {
+    let mut out = Vec::new();
+    for (name, stream) in FAILED_STREAMS {
+        let p = root.join("mav0").join(name).join("failed.csv");
+        if !p.is_file() {
+            continue;
+        }
+        for r in bad.rows(&p, 2)? {
+            let text = r.field(&p, 0, "reason")?;
+            let reason = Reject::ALL
+                .into_iter()
+                .find(|x| x.name() == text)
+                .ok_or_else(|| {
+                    CliError::line(
+                        &p,
+                        r.line,
+                        format!("reason: `{text}` is not a reject reason"),
+                    )
+                })?;
+            out.push(LoggedFailure {
+                t: r.t,
+                stream,
+                reason,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The sample, image and ground-truth streams of the folder at `root`.
+fn read_streams(root: &Path, bad: BadSamples) -> Result<Dataset, CliError> {
     let mav0 = root.join("mav0");
     if !mav0.is_dir() {
         return Err(CliError::file(
@@ -451,6 +518,18 @@ pub fn write_dataset(root: &Path, ds: &Dataset) -> Result<(), CliError> {
     if let Some(l) = &ds.labels {
         l.write(root)?;
     }
+    for (name, stream) in FAILED_STREAMS {
+        let rows: Vec<String> = ds
+            .failed
+            .iter()
+            .filter(|f| f.stream == stream)
+            .map(|f| format!("{},{}", f.t.0, f.reason.name()))
+            .collect();
+        if !rows.is_empty() {
+            let d = mk(name)?;
+            csvio::write_rows(&d.join("failed.csv"), FAILED_HEADER, rows)?;
+        }
+    }
     Ok(())
 }
 
@@ -578,6 +657,51 @@ mod tests {
         assert_eq!(back.flow, ds.flow);
         assert_eq!(back.groundtruth, ds.groundtruth);
         assert_eq!(back.missing(), vec!["cam0", "seg0"]);
+    }
+
+    #[test]
+    fn failed_reads_round_trip_and_bad_reasons_are_named() {
+        let d = tmp("failed");
+        let mut ds = sample_dataset();
+        ds.failed = vec![
+            LoggedFailure {
+                t: Timestamp(30),
+                stream: Stream::Wheel,
+                reason: Reject::Bus,
+            },
+            LoggedFailure {
+                t: Timestamp(40),
+                stream: Stream::Wheel,
+                reason: Reject::OutOfRange,
+            },
+            LoggedFailure {
+                t: Timestamp(35),
+                stream: Stream::Flow,
+                reason: Reject::Integrity,
+            },
+        ];
+        write_dataset(&d, &ds).unwrap();
+        let wheel = d.join("mav0/wheel0/failed.csv");
+        assert_eq!(
+            std::fs::read_to_string(&wheel).unwrap(),
+            "#timestamp [ns],reason\n30,bus\n40,out_of_range\n"
+        );
+        assert!(!d.join("mav0/imu0/failed.csv").exists());
+        // Read back by stream: the wheels', then the flow's.
+        let back = read_dataset(&d).unwrap();
+        assert_eq!(back.failed, [ds.failed[0], ds.failed[1], ds.failed[2]]);
+        std::fs::write(&wheel, "#timestamp [ns],reason\n30,spi\n").unwrap();
+        let e = read_dataset(&d).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("wheel0/failed.csv:2: reason: `spi` is not a reject reason"),
+            "{e}"
+        );
+        assert_eq!(e.exit_code(), 2);
+        // Without `failed.csv` a log has no failed reads.
+        std::fs::remove_file(&wheel).unwrap();
+        std::fs::remove_file(d.join("mav0/flow0/failed.csv")).unwrap();
+        assert!(read_dataset(&d).unwrap().failed.is_empty());
     }
 
     #[test]

@@ -8,7 +8,7 @@ use super::report::{decision_json, report_json};
 use super::{Feed, FlowSource, Health, Outcomes, ReplayOptions, ReplayOutput};
 use crate::asl::{Dataset, GroundTruth, ImageEntry};
 use crate::error::CliError;
-use crate::faults::{FailedRead, Stream};
+use crate::faults::Stream;
 use crate::metrics::trajectory_error;
 use crate::pngio::{GrayImage, load_gray};
 use crate::progress::Progress;
@@ -68,7 +68,10 @@ fn image(entries: Option<&[ImageEntry]>, k: usize) -> Result<Option<(GrayImage, 
 enum Next {
     Sample(Event),
     FlowFrame(usize),
+    /// A failed read of the feed (`simulate --faults`).
     Failed(usize),
+    /// A failed read the log recorded (`failed.csv`).
+    LoggedFailure(usize),
     Camera(usize),
     Labels(usize),
     Segment(usize),
@@ -152,6 +155,13 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timesta
             if let Some((_, f)) = ds.flow.as_ref().filter(|_| counts) {
                 items.extend(arrivals(f.iter().map(|s| Event::Flow(*s))));
             }
+            items.extend(
+                ds.failed
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, f)| counts || f.stream != Stream::Flow)
+                    .map(|(i, f)| (f.t, 0, Next::LoggedFailure(i))),
+            );
         }
         Some(feed) => {
             let flow_counts = |s: Stream| counts || s != Stream::Flow;
@@ -295,10 +305,10 @@ impl Collected {
         }
     }
 
-    /// A read that produced no sample.
-    fn failed(&mut self, est: &mut Estimator<'_>, f: &FailedRead) {
-        est.reject_read(f.stream, f.t, f.reason);
-        self.log((f.stream, f.t, f.reason.name()));
+    /// A read of `stream` at `t` that produced no sample, for `reason`.
+    fn failed(&mut self, est: &mut Estimator<'_>, stream: Stream, t: Timestamp, reason: Reject) {
+        est.reject_read(stream, t, reason);
+        self.log((stream, t, reason.name()));
     }
 
     /// Camera frame `k` of the dataset.
@@ -464,7 +474,12 @@ impl Collected {
             }
             Next::Failed(k) => {
                 if let Some(f) = feed.and_then(|f| f.failed.get(*k)) {
-                    self.failed(est, f);
+                    self.failed(est, f.stream, f.t, f.reason);
+                }
+            }
+            Next::LoggedFailure(k) => {
+                if let Some(f) = ds.failed.get(*k) {
+                    self.failed(est, f.stream, f.t, f.reason);
                 }
             }
             Next::FlowFrame(k) => self.flow_frame(est, ds, t, *k)?,

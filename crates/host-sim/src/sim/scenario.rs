@@ -257,6 +257,7 @@ pub fn dataset_of(sc: &Scenario) -> Dataset {
         groundtruth: None,
         wheel_rates: None,
         labels: None,
+        failed: Vec::new(),
     }
 }
 
