@@ -6,10 +6,10 @@
 //! With a fault list (`--faults`, [`crate::faults`]) the run is spoiled as
 //! the list says, and `report.json` gets a `faults` section.
 
-use crate::asl::{GroundTruth, LoggedFailure, read_dataset, write_dataset};
+use crate::asl::{GroundTruth, read_dataset, write_dataset};
 use crate::error::CliError;
 use crate::faults::report::{FaultLog, FaultOutcome, Injected, faults_section, outcomes};
-use crate::faults::{FaultPlan, Stage, Stream, inject};
+use crate::faults::{FailedRead, FaultPlan, Stage, Stream, inject};
 use crate::plot::Scene;
 use crate::progress::Progress;
 use crate::replay::{
@@ -212,15 +212,7 @@ pub fn simulate_faults_with(
     log.injected
         .extend(crate::faults::scenario::spoiled(plan, &wheel_times));
     // The drivers' failed reads, as a robot's recorder logs them.
-    ds.failed = generated
-        .failed
-        .iter()
-        .map(|f| LoggedFailure {
-            t: f.t,
-            stream: f.stream,
-            reason: f.reason,
-        })
-        .collect();
+    ds.failed = generated.failed.iter().map(FailedRead::logged).collect();
     write_dataset(&dataset, &ds)?;
     let scene = Scene::of(&sc);
     scene.write(&dataset)?;

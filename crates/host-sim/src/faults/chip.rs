@@ -4,6 +4,7 @@
 
 use super::kind::{FaultKind, Stage};
 use super::spec::{FaultPlan, FaultSpec};
+use crate::asl::LoggedFailure;
 use traction::vslam_core::{Reject, Stream, Timestamp};
 
 /// A read that produced no sample: the driver's error turned into its reason.
@@ -17,6 +18,17 @@ pub struct FailedRead {
     pub reason: Reject,
     /// Index of the fault in the plan.
     pub fault: usize,
+}
+
+impl FailedRead {
+    /// The read as a log records it (`failed.csv`: no fault index).
+    pub fn logged(&self) -> LoggedFailure {
+        LoggedFailure {
+            t: self.t,
+            stream: self.stream,
+            reason: self.reason,
+        }
+    }
 }
 
 /// The chip faults of one stream that fire on single reads, in read order:

@@ -6,7 +6,7 @@ use super::config::{estimator_config, frontend_config, sensor_yaml};
 use super::memory as memory_file;
 use super::report::{decision_json, report_json};
 use super::{Feed, FlowSource, Health, Outcomes, ReplayOptions, ReplayOutput};
-use crate::asl::{Dataset, GroundTruth, ImageEntry};
+use crate::asl::{Dataset, GroundTruth, ImageEntry, LoggedFailure};
 use crate::error::CliError;
 use crate::faults::Stream;
 use crate::metrics::trajectory_error;
@@ -68,10 +68,9 @@ fn image(entries: Option<&[ImageEntry]>, k: usize) -> Result<Option<(GrayImage, 
 enum Next {
     Sample(Event),
     FlowFrame(usize),
-    /// A failed read of the feed (`simulate --faults`).
-    Failed(usize),
-    /// A failed read the log recorded (`failed.csv`).
-    LoggedFailure(usize),
+    /// A read that failed: the feed's (`simulate --faults`) or the log's
+    /// (`failed.csv`).
+    Failed(LoggedFailure),
     Camera(usize),
     Labels(usize),
     Segment(usize),
@@ -158,9 +157,8 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timesta
             items.extend(
                 ds.failed
                     .iter()
-                    .enumerate()
-                    .filter(|(_, f)| counts || f.stream != Stream::Flow)
-                    .map(|(i, f)| (f.t, 0, Next::LoggedFailure(i))),
+                    .filter(|f| counts || f.stream != Stream::Flow)
+                    .map(|f| (f.t, 0, Next::Failed(*f))),
             );
         }
         Some(feed) => {
@@ -174,9 +172,8 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timesta
             items.extend(
                 feed.failed
                     .iter()
-                    .enumerate()
-                    .filter(|(_, f)| flow_counts(f.stream))
-                    .map(|(i, f)| (f.t, 0, Next::Failed(i))),
+                    .filter(|f| flow_counts(f.stream))
+                    .map(|f| (f.t, 0, Next::Failed(f.logged()))),
             );
         }
     }
@@ -305,10 +302,10 @@ impl Collected {
         }
     }
 
-    /// A read of `stream` at `t` that produced no sample, for `reason`.
-    fn failed(&mut self, est: &mut Estimator<'_>, stream: Stream, t: Timestamp, reason: Reject) {
-        est.reject_read(stream, t, reason);
-        self.log((stream, t, reason.name()));
+    /// A read that produced no sample.
+    fn failed(&mut self, est: &mut Estimator<'_>, f: &LoggedFailure) {
+        est.reject_read(f.stream, f.t, f.reason);
+        self.log((f.stream, f.t, f.reason.name()));
     }
 
     /// Camera frame `k` of the dataset.
@@ -462,7 +459,6 @@ impl Collected {
         &mut self,
         est: &mut Estimator<'_>,
         ds: &Dataset,
-        feed: Option<&Feed>,
         t: Timestamp,
         next: &Next,
     ) -> Result<(), CliError> {
@@ -472,16 +468,7 @@ impl Collected {
                 est.offer(*e);
                 self.drain(est);
             }
-            Next::Failed(k) => {
-                if let Some(f) = feed.and_then(|f| f.failed.get(*k)) {
-                    self.failed(est, f.stream, f.t, f.reason);
-                }
-            }
-            Next::LoggedFailure(k) => {
-                if let Some(f) = ds.failed.get(*k) {
-                    self.failed(est, f.stream, f.t, f.reason);
-                }
-            }
+            Next::Failed(f) => self.failed(est, f),
             Next::FlowFrame(k) => self.flow_frame(est, ds, t, *k)?,
             Next::Camera(k) => self.camera(est, ds, t, *k)?,
             Next::Labels(k) => self.labels(est, ds, t, *k)?,
@@ -529,7 +516,7 @@ pub(super) fn run(
         ..Collected::default()
     };
     for (i, (t, _, next)) in items.iter().enumerate() {
-        c.step(&mut est, ds, feed, *t, next)?;
+        c.step(&mut est, ds, *t, next)?;
         if i % 256 == 0 {
             bar.set_position(i as u64);
         }
