@@ -140,6 +140,8 @@ fn arrivals(events: impl Iterator<Item = Event>) -> Vec<(Timestamp, u8, Next)> {
 fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timestamp, u8, Next)> {
     let mut items: Vec<(Timestamp, u8, Next)> = Vec::new();
     let counts = flow == FlowSource::Counts;
+    // The flow's samples and failed reads only when its counts are the source.
+    let flow_counts = |s: Stream| counts || s != Stream::Flow;
     match feed {
         None => {
             if let Some((_, imu)) = &ds.imu {
@@ -157,12 +159,11 @@ fn schedule(ds: &Dataset, feed: Option<&Feed>, flow: FlowSource) -> Vec<(Timesta
             items.extend(
                 ds.failed
                     .iter()
-                    .filter(|f| counts || f.stream != Stream::Flow)
+                    .filter(|f| flow_counts(f.stream))
                     .map(|f| (f.t, 0, Next::Failed(*f))),
             );
         }
         Some(feed) => {
-            let flow_counts = |s: Stream| counts || s != Stream::Flow;
             items.extend(
                 feed.samples
                     .iter()
