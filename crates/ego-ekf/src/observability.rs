@@ -275,41 +275,107 @@ fn heading_variance(p: &Covariance, u: &Vec3) -> Option<f32> {
     (!s.is_nan()).then_some(s)
 }
 
-/// `P <- F P F^T` with `F = I + d u^T`, `u` on the attitude columns and
-/// `s = u^T P u` ([`heading_variance`]): `P += d b^T + b d^T + s d d^T`,
-/// `b = P u`, entry by entry.
-fn rank_one_congruence(p: &mut Covariance, d: &ErrorState, u: &Vec3, s: f32) {
-    let b: ErrorState = p.fixed_columns::<3>(TH) * u;
-    // `P += d b^T + b d^T + s d d^T` entry by entry: no DIM x DIM
-    // temporaries on the stack, and symmetric bit for bit (each entry's
-    // terms are the mirror entry's, swapped).
-    // Column-major slices: plain loops the compiler keeps tight. `d` is
-    // zero on the biases and the robot states, so a column whose `d_j` is
-    // zero only gains `d_i b_j` on the rows where `d_i` is not (the full
-    // expression there, with its zero terms dropped: still the mirror of
-    // the full expression in column `i`).
-    let (d, b) = (d.as_slice(), b.as_slice());
-    let mut rows = [0usize; DIM];
+/// The heading direction's blocks (`heading_direction`): the only rows
+/// where `N`, and so every `d` [`rank_one_congruence`] is given, can be
+/// nonzero.
+const ON_BLOCKS: [usize; 6] = [P, V, TH, G, CP, CTH];
+
+/// Whether row `i` lies in one of [`ON_BLOCKS`].
+const fn on_heading(i: usize) -> bool {
     let mut k = 0;
-    for (i, di) in d.iter().enumerate() {
-        if *di != 0.0
-            && let Some(r) = rows.get_mut(k)
-        {
-            *r = i;
+    while k < ON_BLOCKS.len() {
+        #[allow(clippy::indexing_slicing)] // k < ON_BLOCKS.len()
+        let start = ON_BLOCKS[k];
+        if i >= start && i < start + 3 {
+            return true;
+        }
+        k += 1;
+    }
+    false
+}
+
+/// The runs of consecutive rows of [`ON_BLOCKS`] (`on` true) or of the
+/// others, as `(start, end)`, ascending; `N` must be their number.
+const fn runs<const N: usize>(on: bool) -> [(usize, usize); N] {
+    let mut out = [(0, 0); N];
+    let (mut i, mut k) = (0, 0);
+    while i < DIM {
+        if on_heading(i) == on {
+            let start = i;
+            while i < DIM && on_heading(i) == on {
+                i += 1;
+            }
+            assert!(k < N, "more runs than the array holds");
+            #[allow(clippy::indexing_slicing)] // k < N, asserted
+            {
+                out[k] = (start, i);
+            }
             k += 1;
+        } else {
+            i += 1;
         }
     }
-    let rows = rows.get(..k).unwrap_or(&[]);
-    for (col, (dj, bj)) in p.as_mut_slice().chunks_exact_mut(DIM).zip(d.iter().zip(b)) {
-        if *dj == 0.0 {
-            for &i in rows {
-                if let (Some(c), Some(di)) = (col.get_mut(i), d.get(i)) {
-                    *c += di * bj;
+    assert!(k == N, "fewer runs than the array holds");
+    out
+}
+
+/// The runs of rows on the heading direction's blocks: `p`, `v`, `q`
+/// (0..9), gravity (15..18), the clone (30..36).
+const ON: [(usize, usize); 3] = runs(true);
+/// The runs of the other rows (biases, gyro scale, robot states): `N` is
+/// zero there.
+const OFF: [(usize, usize); 2] = runs(false);
+
+/// The entries of `v` in the run `(start, end)` (empty if out of range).
+fn run(v: &[f32; DIM], (start, end): (usize, usize)) -> &[f32] {
+    v.get(start..end).unwrap_or(&[])
+}
+
+/// The same, mutable.
+fn run_mut(v: &mut [f32; DIM], (start, end): (usize, usize)) -> &mut [f32] {
+    v.get_mut(start..end).unwrap_or(&mut [])
+}
+
+/// `P <- F P F^T` with `F = I + d u^T`, `u` on the attitude columns and
+/// `s = u^T P u` ([`heading_variance`]): `P += d b^T + b d^T + s d d^T`,
+/// `b = P u`, entry by entry. `d` is read on the rows of [`ON`] only (the
+/// blocks of `N`, where every caller's `d` lies); it is taken as zero on
+/// the others.
+///
+/// With `d` zero off [`ON`], an entry whose row and column are both off
+/// it does not change, one with exactly one of them on it gains one
+/// product, `d_i b_j`, and the [`ON`] block takes the whole expression:
+/// `18 x 18` entries of it and `2 x 18 x 18` single products for the
+/// 36-state filter, on constant row lists (the loops unroll, with no index
+/// tests). Each entry's terms are its mirror entry's, swapped, so `P`
+/// stays symmetric bit for bit. No `DIM x DIM` temporaries.
+fn rank_one_congruence(p: &mut Covariance, d: &ErrorState, u: &Vec3, s: f32) {
+    let b: ErrorState = p.fixed_columns::<3>(TH) * u;
+    let (d, b) = (&d.data.0[0], &b.data.0[0]);
+    let cols = &mut p.data.0;
+    for r in ON {
+        let cols_r = cols.get_mut(r.0..r.1).unwrap_or(&mut []);
+        for (col, (&dj, &bj)) in cols_r.iter_mut().zip(run(d, r).iter().zip(run(b, r))) {
+            for q in ON {
+                let rows = run_mut(col, q).iter_mut();
+                for (c, (&di, &bi)) in rows.zip(run(d, q).iter().zip(run(b, q))) {
+                    *c += (di * bj + bi * dj) + s * (di * dj);
                 }
             }
-        } else {
-            for ((c, di), bi) in col.iter_mut().zip(d).zip(b) {
-                *c += (di * bj + bi * dj) + s * (di * dj);
+            for q in OFF {
+                for (c, &bi) in run_mut(col, q).iter_mut().zip(run(b, q)) {
+                    *c += bi * dj;
+                }
+            }
+        }
+    }
+    for r in OFF {
+        let cols_r = cols.get_mut(r.0..r.1).unwrap_or(&mut []);
+        for (col, &bj) in cols_r.iter_mut().zip(run(b, r)) {
+            for q in ON {
+                for (c, &di) in run_mut(col, q).iter_mut().zip(run(d, q)) {
+                    *c += di * bj;
+                }
             }
         }
     }
@@ -332,3 +398,6 @@ pub fn project<const M: usize>(m: &mut Measurement<M>, x: &NominalState) {
     let mut h_th = m.h.fixed_columns_mut::<3>(TH);
     h_th -= hn * u.transpose();
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,5 +1,6 @@
-//! The square root of the vision hot loops (the Shi-Tomasi response of every
-//! pixel, the tracker's conditioning test).
+//! The square root of the hot loops: the vision's (the Shi-Tomasi response
+//! of every pixel, the tracker's conditioning test) and the EKF updates'
+//! Cholesky factor (`ego_ekf::kernels::cholesky`, one per row).
 //!
 //! IEEE 754 requires the square root to be correctly rounded, and so are
 //! `libm::sqrtf` and the `VSQRT.F32` instruction of every Arm floating-point
