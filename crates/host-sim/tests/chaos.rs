@@ -12,10 +12,11 @@
 use host_sim::chaos::{ChaosConfig, run_chaos};
 use serde_json::Value;
 
+mod common;
+
 #[test]
 fn five_minutes_of_chaos_keep_every_invariant() {
-    let out = std::env::temp_dir().join(format!("traction-chaos-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = common::scratch("traction-chaos", "300s");
     let config = ChaosConfig {
         seed: 1,
         duration_s: 300.0,
@@ -64,7 +65,6 @@ fn five_minutes_of_chaos_keep_every_invariant() {
     );
     // The fault-free run is beside it.
     assert!(out.join("free/report.json").exists());
-    std::fs::remove_dir_all(&out).unwrap();
 }
 
 /// An hour's chaos plans, through the simulated encoders and the real

@@ -3,10 +3,11 @@
 
 use std::process::Command;
 
+mod common;
+
 #[test]
 fn accuracy_prints_one_row_per_run_from_its_report() {
-    let out = std::env::temp_dir().join(format!("host-sim-accuracy-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = common::scratch("host-sim-accuracy", "short");
     let run = Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .args(["accuracy", "--scenarios", "short", "--seeds", "2", "--out"])
         .arg(&out)
@@ -30,5 +31,4 @@ fn accuracy_prints_one_row_per_run_from_its_report() {
     assert_eq!(cell, format!("{ate:.3}"), "{stdout}");
     // The dataset (images) is not kept without --keep.
     assert!(!out.join("short-2/dataset").exists());
-    let _ = std::fs::remove_dir_all(&out);
 }

@@ -36,8 +36,7 @@ fn help_lists_the_syntax_and_every_kind() {
 #[test]
 fn a_bad_fault_list_is_a_usage_error() {
     for bad in ["imu-nan", "nope@3", "wheel-gap@3x2", "imu-nan@-1"] {
-        let dir =
-            std::env::temp_dir().join(format!("host-sim-cli-faults-bad-{}", std::process::id()));
+        let dir = common::scratch("host-sim-cli-faults", "bad");
         let out = host_sim()
             .args(["simulate", "--scenario", "short", "--faults", bad, "--out"])
             .arg(&dir)
@@ -53,8 +52,7 @@ fn a_bad_fault_list_is_a_usage_error() {
 
 #[test]
 fn report_json_counts_what_was_injected() {
-    let dir = std::env::temp_dir().join(format!("host-sim-cli-faults-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::scratch("host-sim-cli-faults", "run");
     let out = host_sim()
         .args([
             "simulate",
@@ -92,7 +90,6 @@ fn report_json_counts_what_was_injected() {
     assert_eq!(h["non_finite_steps"], 0);
     assert_eq!(h["not_spd_steps"], 0);
     assert!(h["imu_steps_checked"].as_u64().unwrap() > 2000);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -100,8 +97,7 @@ fn a_fault_that_never_fires_changes_nothing() {
     // A cable at 100 s, after the 12 s run: the fault path (generation with
     // fault hooks, the log read back, the stream injector, the feed) must
     // give exactly the outputs of a plain run.
-    let base =
-        std::env::temp_dir().join(format!("host-sim-cli-faults-idle-{}", std::process::id()));
+    let base = common::scratch("host-sim-cli-faults", "idle");
     let (plain, idle) = (base.join("plain"), base.join("idle"));
     for (dir, extra) in [(&plain, None), (&idle, Some("bump@100"))] {
         let mut cmd = host_sim();
@@ -126,5 +122,4 @@ fn a_fault_that_never_fires_changes_nothing() {
     let faults = with.as_object_mut().unwrap().remove("faults").unwrap();
     assert_eq!(with, read(&plain));
     assert_eq!(faults["faults"][0]["injected"], 0);
-    let _ = std::fs::remove_dir_all(&base);
 }

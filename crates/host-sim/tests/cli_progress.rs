@@ -7,7 +7,7 @@ use common::host_sim;
 
 use std::process::Output;
 
-fn tmp(name: &str) -> std::path::PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-cli-progress", name)
 }
 

@@ -3,7 +3,7 @@
 mod common;
 use common::host_sim;
 
-fn tmp(name: &str) -> std::path::PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-cli-replay", name)
 }
 

@@ -9,10 +9,10 @@ mod common;
 use common::host_sim;
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-cli-scale", name)
 }
 
@@ -27,12 +27,12 @@ fn run(cmd: &mut Command) {
 }
 
 /// `simulate --scenario short --seed 1` with `args` into a fresh folder.
-fn simulate(name: &str, args: &[&str]) -> (PathBuf, Value) {
+fn simulate(name: &str, args: &[&str]) -> (common::Scratch, Value) {
     simulate_in(name, &["--scenario", "short"], args)
 }
 
 /// `simulate --seed 1` of `scenario` with `args` into a fresh folder.
-fn simulate_in(name: &str, scenario: &[&str], args: &[&str]) -> (PathBuf, Value) {
+fn simulate_in(name: &str, scenario: &[&str], args: &[&str]) -> (common::Scratch, Value) {
     let out = tmp(name);
     run(host_sim()
         .args(["simulate", "--seed", "1"])

@@ -8,10 +8,9 @@ mod common;
 
 use host_sim::closed_loop::{LoopOptions, run_waypoints};
 use host_sim::sim::scenario::Scenario;
-use std::path::PathBuf;
 use traction::navigate::Policy;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-closed-loop", name)
 }
 

@@ -47,7 +47,7 @@ const REPLAY_FILES: [&str; 5] = [
     "report.json",
 ];
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-det", name)
 }
 

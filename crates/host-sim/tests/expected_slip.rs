@@ -14,9 +14,8 @@ use host_sim::sim::motion::{TRUTH_STEP_NS, TruthStep, integrate, surface_slip};
 use host_sim::sim::scenario::Scenario;
 use host_sim::sim::world::Surface;
 use host_sim::simulate::simulate_scenario_with;
-use std::path::PathBuf;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-slip", name)
 }
 

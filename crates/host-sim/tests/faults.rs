@@ -27,6 +27,8 @@ use std::collections::BTreeMap;
 use std::sync::OnceLock;
 use traction::vslam_core::Reject;
 
+mod common;
+
 const SEED: u64 = 3;
 const DURATION_S: f64 = 9.5;
 
@@ -61,17 +63,13 @@ fn run(plan: &str) -> Run {
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
         .collect();
     // Two tests may run the same plan at once: each run gets its own folder.
-    static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let k = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!(
-        "host-sim-faults-{}-{k}-{}",
-        std::process::id(),
-        if name.is_empty() { "free" } else { &name }
-    ));
+    let dir = common::scratch(
+        "host-sim-faults",
+        if name.is_empty() { "free" } else { &name },
+    );
     let plan: FaultPlan = plan.parse().unwrap();
     let run = simulate_faults(&scenario(), SEED, &dir, false, &plan).unwrap();
     let report_json = std::fs::read_to_string(dir.join("report.json")).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
     Run { run, report_json }
 }
 
@@ -342,7 +340,7 @@ fn a_replayed_log_breaks_the_odometry_where_its_reads_failed() {
     // counts held through them: a turn the robot did not make, while the
     // wheels bridge the refused IMU.
     let plan_text = "imu-stuck@4.03+0.74,wheel-wrap@4.275+0.15";
-    let dir = std::env::temp_dir().join(format!("host-sim-faults-{}-logged", std::process::id()));
+    let dir = common::scratch("host-sim-faults", "logged");
     let plan: FaultPlan = plan_text.parse().unwrap();
     let run = simulate_faults(&scenario(), SEED, &dir, false, &plan).unwrap();
     let root = dir.join("dataset");
@@ -356,7 +354,6 @@ fn a_replayed_log_breaks_the_odometry_where_its_reads_failed() {
     let replayed = replay(&ds, &root, false).unwrap();
     ds.failed.clear();
     let cut = replay(&ds, &root, false).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(replayed.ekf, run.output.ekf);
     let end = run.results.iter().map(|r| r.window_end_ns).max().unwrap();
     let judge = |ekf: &[host_sim::tum::TumPose]| {

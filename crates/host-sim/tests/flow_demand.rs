@@ -9,10 +9,9 @@ mod common;
 use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, ReplayOutput, replay_with};
 use host_sim::simulate::run_simulate;
-use std::path::PathBuf;
 use traction::flow_demand::FlowDemandConfig;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-flow-demand", name)
 }
 

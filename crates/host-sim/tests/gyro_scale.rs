@@ -13,7 +13,6 @@ use host_sim::asl::{Dataset, read_dataset};
 use host_sim::replay::{ReplayOptions, ReplayOutput, replay_with};
 use host_sim::sim::scenario::Scenario;
 use host_sim::simulate::simulate_scenario_with;
-use std::path::PathBuf;
 
 const SCALE_ERROR: f64 = 0.01;
 
@@ -21,7 +20,7 @@ const SCALE_ERROR: f64 = 0.01;
 /// 1 s to about 64 s), ns.
 const SPAN: (u64, u64) = (5_000_000_000, 60_000_000_000);
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-gyro-scale", name)
 }
 

@@ -7,7 +7,7 @@ use common::host_sim;
 
 use std::path::{Path, PathBuf};
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-import-bt", name)
 }
 

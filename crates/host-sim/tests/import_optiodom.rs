@@ -6,7 +6,7 @@ use common::host_sim;
 
 use std::path::PathBuf;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-import-oo", name)
 }
 

@@ -9,11 +9,11 @@ mod common;
 use host_sim::asl::{Dataset, write_dataset};
 use host_sim::replay::{ReplayOutput, imu_rate_hz, run_replay};
 use host_sim::sim::scenario::{Scenario, generate};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use traction::vslam_core::Timestamp;
 use traction::vslam_core::sensors::RawImuSample;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-imuv", name)
 }
 

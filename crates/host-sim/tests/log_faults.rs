@@ -14,10 +14,10 @@ use host_sim::replay::{ReplayOptions, run_replay_with};
 use host_sim::sim::scenario::{Scenario, generate};
 use serde_json::Value;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-logf", name)
 }
 

@@ -14,7 +14,6 @@ mod common;
 
 use common::{replay, report, scratch, simulate_slip_12s, succeed};
 use serde_json::Value;
-use std::path::PathBuf;
 use std::sync::OnceLock;
 use traction::vslam_core::Timestamp;
 use traction::vslam_core::adverse::{AdverseKind, SensorKind};
@@ -26,7 +25,8 @@ use traction::vslam_core::scale::pipeline::PipelineMemory;
 const EVENTS: usize = 6;
 
 struct Run {
-    dir: PathBuf,
+    /// Its folder (held by the static for the whole test run: not removed).
+    dir: common::Scratch,
     /// The camera path's poses of the replay with an empty memory: `(t, x, y)`.
     poses: Vec<(u64, f32, f32)>,
     /// report.json of that replay.

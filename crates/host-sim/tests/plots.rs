@@ -13,6 +13,8 @@ use resvg::tiny_skia::{Pixmap, Transform};
 use serde_json::{Value, json};
 use traction::Timestamp;
 
+mod common;
+
 // The trace colours, restated (plot/mod.rs).
 const TRUTH: [u8; 3] = [0x7f, 0x7f, 0x7f];
 const EKF: [u8; 3] = [0xd6, 0x27, 0x28];
@@ -279,8 +281,7 @@ fn without_a_truth_the_plots_frame_on_the_ekf_and_say_there_are_no_errors() {
 
 #[test]
 fn a_simulated_run_draws_its_world_its_traces_and_its_events() {
-    let out = std::env::temp_dir().join(format!("traction-plots-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = common::scratch("traction-plots", "short");
     let r = run_simulate("short", 1, &out, false).unwrap();
     let dataset = out.join("dataset");
     let ds = read_dataset(&dataset).unwrap();
@@ -337,7 +338,6 @@ fn a_simulated_run_draws_its_world_its_traces_and_its_events() {
         assert!(errors.count_in(c, "pos") > 100, "{name} position error");
         assert!(errors.count_in(c, "yaw") > 100, "{name} yaw error");
     }
-    std::fs::remove_dir_all(&out).unwrap();
 }
 
 #[test]

@@ -11,7 +11,7 @@ use common::host_sim;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-real", name)
 }
 

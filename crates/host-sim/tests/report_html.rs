@@ -45,7 +45,7 @@ const TIMEOUT: Duration = Duration::from_secs(60);
 const WIDTH: u32 = 1200;
 const HEIGHT: u32 = 4500;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-it", name)
 }
 

@@ -7,15 +7,14 @@ mod common;
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::robot_description;
 use host_sim::sim::scenario::{Scenario, generate};
-use std::path::PathBuf;
 use traction::estimator::EstimatorConfig;
 use traction::vslam_core::robot::{RobotDescription, RobotError};
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-robot", name)
 }
 
-fn simulated(name: &str) -> (PathBuf, host_sim::asl::Dataset) {
+fn simulated(name: &str) -> (common::Scratch, host_sim::asl::Dataset) {
     let root = tmp(name);
     let mut sc = Scenario::by_name("short").unwrap();
     sc.script.duration = 0.5;

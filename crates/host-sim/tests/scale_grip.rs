@@ -11,9 +11,8 @@ use host_sim::asl::read_dataset;
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::simulate::run_simulate;
 use serde_json::Value;
-use std::path::PathBuf;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("host-sim-scale-grip", name)
 }
 

@@ -8,9 +8,8 @@ use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::{ReplayOptions, replay_with};
 use host_sim::sim::scenario::{Scenario, generate};
 use serde_json::Value;
-use std::path::PathBuf;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-cam1", name)
 }
 

@@ -6,9 +6,9 @@ mod common;
 use host_sim::asl::{read_dataset, write_dataset};
 use host_sim::replay::{ReplayOutput, replay, run_replay};
 use host_sim::sim::scenario::{Scenario, generate};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::Scratch {
     common::scratch("traction-it", name)
 }
 

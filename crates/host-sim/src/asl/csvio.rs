@@ -194,17 +194,21 @@ pub fn write_rows(
 mod tests {
     use super::*;
 
-    fn write(name: &str, text: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("host-sim-csv-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("data.csv");
+    /// `text` as `data.csv` in a scratch folder, removed when the returned
+    /// guard is dropped.
+    fn write(name: &str, text: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("host-sim-csv-{name}-"))
+            .tempdir()
+            .unwrap();
+        let p = dir.path().join("data.csv");
         std::fs::write(&p, text).unwrap();
-        p
+        (dir, p)
     }
 
     #[test]
     fn reads_rows_with_header_and_spaces() {
-        let p = write(
+        let (_dir, p) = write(
             "ok",
             "#timestamp [ns],left [ticks],right [ticks]\n100, 1,2\n200,3 ,-4\n  300 ,\t5 , 6 \n",
         );
@@ -220,22 +224,22 @@ mod tests {
 
     #[test]
     fn errors_name_file_and_line() {
-        let p = write("order", "#t,a\n100,1\n90,2\n");
+        let (_dir, p) = write("order", "#t,a\n100,1\n90,2\n");
         let e = read_rows(&p, 2).err().unwrap().to_string();
         assert!(
             e.contains("data.csv:3: timestamp 90 is earlier than"),
             "{e}"
         );
-        let p = write("dup", "#t,a\n100,1\n100,2\n");
+        let (_dir, p) = write("dup", "#t,a\n100,1\n100,2\n");
         let e = read_rows(&p, 2).err().unwrap().to_string();
         assert!(e.contains("data.csv:3: timestamp 100 duplicates"), "{e}");
-        let p = write("cols", "#t,a\n100,1,5\n");
+        let (_dir, p) = write("cols", "#t,a\n100,1,5\n");
         let e = read_rows(&p, 2).err().unwrap().to_string();
         assert!(e.contains("data.csv:2: expected 2 columns, found 3"), "{e}");
-        let p = write("ts", "#t,a\n1.5e9,1\n");
+        let (_dir, p) = write("ts", "#t,a\n1.5e9,1\n");
         let e = read_rows(&p, 2).err().unwrap().to_string();
         assert!(e.contains("data.csv:2: timestamp `1.5e9`"), "{e}");
-        let p = write("num", "#t,a\n100,abc\n");
+        let (_dir, p) = write("num", "#t,a\n100,abc\n");
         let rows = read_rows(&p, 2).unwrap();
         let e = rows[0].f64(&p, 0, "a").unwrap_err().to_string();
         assert!(e.contains("data.csv:2: a: `abc` is not a number"), "{e}");
@@ -245,7 +249,7 @@ mod tests {
 
     #[test]
     fn a_value_beyond_f32_is_refused_as_f32_but_not_as_f64() {
-        let p = write("f32range", "#t,a\n100,5.4512e51\n");
+        let (_dir, p) = write("f32range", "#t,a\n100,5.4512e51\n");
         let rows = read_rows(&p, 2).unwrap();
         assert_eq!(rows[0].f64(&p, 0, "a").unwrap(), 5.4512e51);
         let e = rows[0].f32(&p, 0, "a").unwrap_err().to_string();
@@ -258,7 +262,7 @@ mod tests {
 
     #[test]
     fn any_order_keeps_bad_values_and_times_but_not_bad_syntax() {
-        let p = write("any", "#t,a\n100,nan\n100,inf\n90,-inf\n95,1.5\n");
+        let (_dir, p) = write("any", "#t,a\n100,nan\n100,inf\n90,-inf\n95,1.5\n");
         assert!(read_rows(&p, 2).is_err());
         let rows = read_rows_any_order(&p, 2).unwrap();
         let t: Vec<u64> = rows.iter().map(|r| r.t.0).collect();
@@ -268,7 +272,7 @@ mod tests {
         assert_eq!(rows[2].number(&p, 0, "a").unwrap(), f64::NEG_INFINITY);
         let e = rows[0].f64(&p, 0, "a").unwrap_err().to_string();
         assert!(e.contains("data.csv:2: a: `nan` is not finite"), "{e}");
-        let p = write("any-cols", "#t,a\n100,1\n90,2,3\n");
+        let (_dir, p) = write("any-cols", "#t,a\n100,1\n90,2,3\n");
         let e = read_rows_any_order(&p, 2).err().unwrap().to_string();
         assert!(e.contains("data.csv:3: expected 2 columns, found 3"), "{e}");
     }

@@ -558,11 +558,12 @@ fn write_images(dir: &Path, v: &[ImageEntry]) -> Result<(), CliError> {
 mod tests {
     use super::*;
 
-    fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("host-sim-asl-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    /// An empty scratch folder, removed when the guard is dropped.
+    fn tmp(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix(&format!("host-sim-asl-{name}-"))
+            .tempdir()
+            .unwrap()
     }
 
     fn identity() -> [f32; 16] {
@@ -648,7 +649,8 @@ mod tests {
 
     #[test]
     fn write_then_read_round_trips() {
-        let d = tmp("rt");
+        let scratch = tmp("rt");
+        let d = scratch.path();
         let ds = sample_dataset();
         write_dataset(&d, &ds).unwrap();
         let back = read_dataset(&d).unwrap();
@@ -661,7 +663,8 @@ mod tests {
 
     #[test]
     fn failed_reads_round_trip_and_bad_reasons_are_named() {
-        let d = tmp("failed");
+        let scratch = tmp("failed");
+        let d = scratch.path();
         let mut ds = sample_dataset();
         ds.failed = vec![
             LoggedFailure {
@@ -706,7 +709,8 @@ mod tests {
 
     #[test]
     fn wheel_rates_round_trip_and_are_told_apart_by_the_header() {
-        let d = tmp("rates");
+        let scratch = tmp("rates");
+        let d = scratch.path();
         let mut ds = sample_dataset();
         let (mut meta, _) = ds.wheel.take().unwrap();
         meta.ticks_per_revolution = None;
@@ -747,7 +751,8 @@ mod tests {
 
     #[test]
     fn raw_flow_frames_round_trip_and_bad_rows_are_named() {
-        let d = tmp("flowraw");
+        let scratch = tmp("flowraw");
+        let d = scratch.path();
         let src = d.join("src");
         std::fs::create_dir_all(&src).unwrap();
         let mut ds = sample_dataset();
@@ -799,7 +804,8 @@ mod tests {
 
     #[test]
     fn malformed_files_are_named_with_their_line() {
-        let d = tmp("bad");
+        let scratch = tmp("bad");
+        let d = scratch.path();
         write_dataset(&d, &sample_dataset()).unwrap();
         let csv = d.join("mav0/wheel0/data.csv");
         std::fs::write(
@@ -836,7 +842,8 @@ mod tests {
             assert_eq!(e.exit_code(), 2);
         }
 
-        let d = tmp("bad-yaml");
+        let scratch = tmp("bad-yaml");
+        let d = scratch.path();
         write_dataset(&d, &sample_dataset()).unwrap();
         let y = d.join("mav0/flow0/sensor.yaml");
         let text = std::fs::read_to_string(&y)
@@ -849,7 +856,7 @@ mod tests {
             "{e}"
         );
 
-        let e = read_dataset(&tmp("empty")).unwrap_err().to_string();
+        let e = read_dataset(tmp("empty").path()).unwrap_err().to_string();
         assert!(e.contains("no `mav0/`"), "{e}");
     }
 }

@@ -246,9 +246,11 @@ mod tests {
     use super::*;
 
     fn load_str(name: &str, text: &str) -> Result<SensorYaml, CliError> {
-        let dir = std::env::temp_dir().join(format!("host-sim-yaml-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("sensor.yaml");
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("host-sim-yaml-{name}-"))
+            .tempdir()
+            .unwrap();
+        let p = dir.path().join("sensor.yaml");
         std::fs::write(&p, text).unwrap();
         SensorYaml::load(&p)
     }

@@ -31,13 +31,38 @@ pub fn simulate_slip_12s() -> Command {
     c
 }
 
-/// An empty folder `<temp>/<prefix>-<pid>-<name>`, removed first if a
-/// previous run left it.
-pub fn scratch(prefix: &str, name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("{prefix}-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// An empty scratch folder `<temp>/<prefix>-<name>-<random>`, removed with
+/// everything in it when the value is dropped (at the end of the test,
+/// passed or failed). Derefs to its path.
+pub fn scratch(prefix: &str, name: &str) -> Scratch {
+    Scratch(
+        tempfile::Builder::new()
+            .prefix(&format!("{prefix}-{name}-"))
+            .tempdir()
+            .unwrap(),
+    )
+}
+
+/// A scratch folder (see [`scratch`]).
+pub struct Scratch(tempfile::TempDir);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.path().as_os_str()
+    }
 }
 
 /// Fails the test with the run's standard error unless it exited 0.
