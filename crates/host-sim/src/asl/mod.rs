@@ -652,8 +652,8 @@ mod tests {
         let scratch = tmp("rt");
         let d = scratch.path();
         let ds = sample_dataset();
-        write_dataset(&d, &ds).unwrap();
-        let back = read_dataset(&d).unwrap();
+        write_dataset(d, &ds).unwrap();
+        let back = read_dataset(d).unwrap();
         assert_eq!(back.imu, ds.imu);
         assert_eq!(back.wheel, ds.wheel);
         assert_eq!(back.flow, ds.flow);
@@ -683,7 +683,7 @@ mod tests {
                 reason: Reject::Integrity,
             },
         ];
-        write_dataset(&d, &ds).unwrap();
+        write_dataset(d, &ds).unwrap();
         let wheel = d.join("mav0/wheel0/failed.csv");
         assert_eq!(
             std::fs::read_to_string(&wheel).unwrap(),
@@ -691,10 +691,10 @@ mod tests {
         );
         assert!(!d.join("mav0/imu0/failed.csv").exists());
         // Read back by stream: the wheels', then the flow's.
-        let back = read_dataset(&d).unwrap();
+        let back = read_dataset(d).unwrap();
         assert_eq!(back.failed, [ds.failed[0], ds.failed[1], ds.failed[2]]);
         std::fs::write(&wheel, "#timestamp [ns],reason\n30,spi\n").unwrap();
-        let e = read_dataset(&d).unwrap_err();
+        let e = read_dataset(d).unwrap_err();
         assert!(
             e.to_string()
                 .contains("wheel0/failed.csv:2: reason: `spi` is not a reject reason"),
@@ -704,7 +704,7 @@ mod tests {
         // Without `failed.csv` a log has no failed reads.
         std::fs::remove_file(&wheel).unwrap();
         std::fs::remove_file(d.join("mav0/flow0/failed.csv")).unwrap();
-        assert!(read_dataset(&d).unwrap().failed.is_empty());
+        assert!(read_dataset(d).unwrap().failed.is_empty());
     }
 
     #[test]
@@ -728,21 +728,21 @@ mod tests {
             },
         ];
         ds.wheel_rates = Some((meta, rates));
-        write_dataset(&d, &ds).unwrap();
-        let back = read_dataset(&d).unwrap();
+        write_dataset(d, &ds).unwrap();
+        let back = read_dataset(d).unwrap();
         assert_eq!(back.wheel_rates, ds.wheel_rates);
         assert!(back.wheel.is_none());
         assert!(!back.missing().contains(&"wheel0"));
         // A ticks file needs the encoder resolution.
         let csv = d.join("mav0/wheel0/data.csv");
         std::fs::write(&csv, format!("{WHEEL_HEADER}\n10,1,2\n")).unwrap();
-        let e = read_dataset(&d).unwrap_err().to_string();
+        let e = read_dataset(d).unwrap_err().to_string();
         assert!(
             e.contains("wheel0/sensor.yaml: missing key `ticks_per_revolution`"),
             "{e}"
         );
         std::fs::write(&csv, format!("{WHEEL_RATES_HEADER}\n10,1,x\n")).unwrap();
-        let e = read_dataset(&d).unwrap_err().to_string();
+        let e = read_dataset(d).unwrap_err().to_string();
         assert!(
             e.contains("wheel0/data.csv:2: right: `x` is not a number"),
             "{e}"
@@ -806,25 +806,25 @@ mod tests {
     fn malformed_files_are_named_with_their_line() {
         let scratch = tmp("bad");
         let d = scratch.path();
-        write_dataset(&d, &sample_dataset()).unwrap();
+        write_dataset(d, &sample_dataset()).unwrap();
         let csv = d.join("mav0/wheel0/data.csv");
         std::fs::write(
             &csv,
             format!("{WHEEL_HEADER}\n20000000,1,2\n10000000,3,4\n"),
         )
         .unwrap();
-        let e = read_dataset_with(&d, BadSamples::Refuse).unwrap_err();
+        let e = read_dataset_with(d, BadSamples::Refuse).unwrap_err();
         assert!(e.to_string().contains("wheel0/data.csv:3:"), "{e}");
         assert_eq!(e.exit_code(), 2);
         // Passed on, the rows stay in file order for the estimator.
-        let ds = read_dataset(&d).unwrap();
+        let ds = read_dataset(d).unwrap();
         let t: Vec<u64> = ds.wheel.unwrap().1.iter().map(|s| s.t.0).collect();
         assert_eq!(t, [20_000_000, 10_000_000]);
         let imu = d.join("mav0/imu0/data.csv");
         std::fs::write(&imu, format!("{IMU_HEADER}\n4000000,nan,0,0,0,0,inf\n")).unwrap();
-        let s = read_dataset(&d).unwrap().imu.unwrap().1[0];
+        let s = read_dataset(d).unwrap().imu.unwrap().1[0];
         assert!(s.gyro[0].is_nan() && s.accel[2] == f32::INFINITY);
-        let e = read_dataset_with(&d, BadSamples::Refuse)
+        let e = read_dataset_with(d, BadSamples::Refuse)
             .unwrap_err()
             .to_string();
         assert!(
@@ -833,7 +833,7 @@ mod tests {
         );
         std::fs::write(&imu, format!("{IMU_HEADER}\n4000000,0,0,0,0,0\n")).unwrap();
         for bad in [BadSamples::PassOn, BadSamples::Refuse] {
-            let e = read_dataset_with(&d, bad).unwrap_err();
+            let e = read_dataset_with(d, bad).unwrap_err();
             assert!(
                 e.to_string()
                     .contains("imu0/data.csv:2: expected 7 columns"),
@@ -844,13 +844,13 @@ mod tests {
 
         let scratch = tmp("bad-yaml");
         let d = scratch.path();
-        write_dataset(&d, &sample_dataset()).unwrap();
+        write_dataset(d, &sample_dataset()).unwrap();
         let y = d.join("mav0/flow0/sensor.yaml");
         let text = std::fs::read_to_string(&y)
             .unwrap()
             .replace("height: 0.03", "height: -0.03");
         std::fs::write(&y, text).unwrap();
-        let e = read_dataset(&d).unwrap_err().to_string();
+        let e = read_dataset(d).unwrap_err().to_string();
         assert!(
             e.contains("flow0/sensor.yaml:") && e.contains("`height`: must be positive"),
             "{e}"
