@@ -160,7 +160,7 @@ pub fn heading_direction(x: &NominalState) -> ErrorState {
 /// (so `F G N_b = N_a`; the nearest such `F` to the identity that reads
 /// only the attitude). The next transition and update, taken at `after`,
 /// are then blind to the direction the covariance kept unobserved. Dense
-/// over `P` (about `3 DIM^2` multiply-adds). A heading variance above
+/// over the rows of `N` ([`rank_one_congruence`]). A heading variance above
 /// [`MAX_REANCHOR_HEADING_VAR`] leaves `P` as it is; one above
 /// [`HEADING_HOLD_SLACK`] times `max_heading_var` after it is scaled back
 /// to `max_heading_var`, along `N(after)` only
@@ -275,64 +275,37 @@ fn heading_variance(p: &Covariance, u: &Vec3) -> Option<f32> {
     (!s.is_nan()).then_some(s)
 }
 
-/// The heading direction's blocks (`heading_direction`): the only rows
-/// where `N`, and so every `d` [`rank_one_congruence`] is given, can be
-/// nonzero.
-const ON_BLOCKS: [usize; 6] = [P, V, TH, G, CP, CTH];
-
-/// Whether row `i` lies in one of [`ON_BLOCKS`].
-const fn on_heading(i: usize) -> bool {
-    let mut k = 0;
-    while k < ON_BLOCKS.len() {
-        #[allow(clippy::indexing_slicing)] // k < ON_BLOCKS.len()
-        let start = ON_BLOCKS[k];
-        if i >= start && i < start + 3 {
-            return true;
-        }
-        k += 1;
-    }
-    false
-}
-
-/// The runs of consecutive rows of [`ON_BLOCKS`] (`on` true) or of the
-/// others, as `(start, end)`, ascending; `N` must be their number.
-const fn runs<const N: usize>(on: bool) -> [(usize, usize); N] {
-    let mut out = [(0, 0); N];
-    let (mut i, mut k) = (0, 0);
-    while i < DIM {
-        if on_heading(i) == on {
-            let start = i;
-            while i < DIM && on_heading(i) == on {
-                i += 1;
-            }
-            assert!(k < N, "more runs than the array holds");
-            #[allow(clippy::indexing_slicing)] // k < N, asserted
-            {
-                out[k] = (start, i);
-            }
-            k += 1;
-        } else {
-            i += 1;
-        }
-    }
-    assert!(k == N, "fewer runs than the array holds");
-    out
-}
-
-/// The runs of rows on the heading direction's blocks: `p`, `v`, `q`
-/// (0..9), gravity (15..18), the clone (30..36).
-const ON: [(usize, usize); 3] = runs(true);
+/// The runs of rows (`start..end`) on the heading direction's blocks
+/// (`heading_direction`), where `N`, and so every `d` given to
+/// [`rank_one_congruence`], can be nonzero: `p`, `v`, `q` (0..9), gravity
+/// (15..18), the clone (30..36).
+const ON: [(usize, usize); 3] = [(P, TH + 3), (G, G + 3), (CP, CTH + 3)];
 /// The runs of the other rows (biases, gyro scale, robot states): `N` is
 /// zero there.
-const OFF: [(usize, usize); 2] = runs(false);
+const OFF: [(usize, usize); 2] = [(TH + 3, G), (G + 3, CP)];
+/// [`ON`] and [`OFF`] for a `d` that is zero on the clone (a decoupled
+/// clone, or one the update did not move): the clone's rows are then off.
+const ON_NO_CLONE: [(usize, usize); 2] = [(P, TH + 3), (G, G + 3)];
+/// See [`ON_NO_CLONE`].
+const OFF_NO_CLONE: [(usize, usize); 2] = [(TH + 3, G), (G + 3, DIM)];
+// The runs above cover the rows in order (the tests check every row once).
+const _: () = assert!(
+    P == 0
+        && V == P + 3
+        && TH == V + 3
+        && TH + 3 < G
+        && G + 3 < CP
+        && CTH == CP + 3
+        && CTH + 3 == DIM
+);
 
 /// The entries of `v` in the run `(start, end)` (empty if out of range).
-fn run(v: &[f32; DIM], (start, end): (usize, usize)) -> &[f32] {
+fn run(v: &[f32], (start, end): (usize, usize)) -> &[f32] {
     v.get(start..end).unwrap_or(&[])
 }
 
 /// The same, mutable.
-fn run_mut(v: &mut [f32; DIM], (start, end): (usize, usize)) -> &mut [f32] {
+fn run_mut(v: &mut [f32], (start, end): (usize, usize)) -> &mut [f32] {
     v.get_mut(start..end).unwrap_or(&mut [])
 }
 
@@ -342,37 +315,63 @@ fn run_mut(v: &mut [f32; DIM], (start, end): (usize, usize)) -> &mut [f32] {
 /// blocks of `N`, where every caller's `d` lies); it is taken as zero on
 /// the others.
 ///
-/// With `d` zero off [`ON`], an entry whose row and column are both off
-/// it does not change, one with exactly one of them on it gains one
-/// product, `d_i b_j`, and the [`ON`] block takes the whole expression:
-/// `18 x 18` entries of it and `2 x 18 x 18` single products for the
-/// 36-state filter, on constant row lists (the loops unroll, with no index
-/// tests). Each entry's terms are its mirror entry's, swapped, so `P`
-/// stays symmetric bit for bit. No `DIM x DIM` temporaries.
+/// With `d` zero off the runs `on`, an entry whose row and column are both
+/// off them does not change, one with exactly one of them on gains one
+/// product, `d_i b_j`, and the block on them takes the whole expression:
+/// for the 36-state filter `18 x 18` entries of it and `2 x 18 x 18`
+/// single products ([`ON`]), or `12 x 12` and `2 x 12 x 24` when `d` is
+/// zero on the clone ([`ON_NO_CLONE`]). The runs are constants, so the
+/// loops unroll with no index tests. Each entry's terms are its mirror
+/// entry's, swapped, so `P` stays symmetric bit for bit. No `DIM x DIM`
+/// temporaries.
 fn rank_one_congruence(p: &mut Covariance, d: &ErrorState, u: &Vec3, s: f32) {
     let b: ErrorState = p.fixed_columns::<3>(TH) * u;
-    let (d, b) = (&d.data.0[0], &b.data.0[0]);
+    let clone_moves = d.rows_range(CLONE).iter().any(|v| *v != 0.0);
+    if clone_moves {
+        congruence_on(p, d.as_slice(), b.as_slice(), s, &ON, &OFF);
+    } else {
+        congruence_on(
+            p,
+            d.as_slice(),
+            b.as_slice(),
+            s,
+            &ON_NO_CLONE,
+            &OFF_NO_CLONE,
+        );
+    }
+}
+
+/// [`rank_one_congruence`] on the runs `on` (and zero `d` on `off`).
+#[inline(always)]
+fn congruence_on<const A: usize, const B: usize>(
+    p: &mut Covariance,
+    d: &[f32],
+    b: &[f32],
+    s: f32,
+    on: &[(usize, usize); A],
+    off: &[(usize, usize); B],
+) {
     let cols = &mut p.data.0;
-    for r in ON {
+    for &r in on {
         let cols_r = cols.get_mut(r.0..r.1).unwrap_or(&mut []);
         for (col, (&dj, &bj)) in cols_r.iter_mut().zip(run(d, r).iter().zip(run(b, r))) {
-            for q in ON {
+            for &q in on {
                 let rows = run_mut(col, q).iter_mut();
                 for (c, (&di, &bi)) in rows.zip(run(d, q).iter().zip(run(b, q))) {
                     *c += (di * bj + bi * dj) + s * (di * dj);
                 }
             }
-            for q in OFF {
+            for &q in off {
                 for (c, &bi) in run_mut(col, q).iter_mut().zip(run(b, q)) {
                     *c += bi * dj;
                 }
             }
         }
     }
-    for r in OFF {
+    for &r in off {
         let cols_r = cols.get_mut(r.0..r.1).unwrap_or(&mut []);
         for (col, &bj) in cols_r.iter_mut().zip(run(b, r)) {
-            for q in ON {
+            for &q in on {
                 for (c, &di) in run_mut(col, q).iter_mut().zip(run(d, q)) {
                     *c += di * bj;
                 }

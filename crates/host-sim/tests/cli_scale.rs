@@ -221,9 +221,10 @@ fn compose_pair_and_running_end_to_end() {
 #[test]
 fn unknown_names_are_usage_errors() {
     for args in [["--scale-method", "best"], ["--compose", "frame"]] {
+        let bad = tmp("bad");
         let o = host_sim()
             .args(["simulate", "--scenario", "short", "--out"])
-            .arg(tmp("bad"))
+            .arg(&bad)
             .args(args)
             .output()
             .unwrap();

@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{replay, report, scratch, simulate_slip_12s, succeed};
+use common::{replay, report, simulate_slip_12s, succeed};
 use serde_json::Value;
 use std::sync::OnceLock;
 use traction::vslam_core::Timestamp;
@@ -25,8 +25,10 @@ use traction::vslam_core::scale::pipeline::PipelineMemory;
 const EVENTS: usize = 6;
 
 struct Run {
-    /// Its folder (held by the static for the whole test run: not removed).
-    dir: common::Scratch,
+    /// Its folder, in the target's folder for test files (the static lives
+    /// to the end of the process, so nothing would remove a scratch folder;
+    /// this one is replaced by the next run).
+    dir: std::path::PathBuf,
     /// The camera path's poses of the replay with an empty memory: `(t, x, y)`.
     poses: Vec<(u64, f32, f32)>,
     /// report.json of that replay.
@@ -38,7 +40,9 @@ struct Run {
 fn base() -> &'static Run {
     static RUN: OnceLock<Run> = OnceLock::new();
     RUN.get_or_init(|| {
-        let dir = scratch("host-sim-memory-weights", "base");
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("memory-weights-base");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
         succeed(simulate_slip_12s().arg("--out").arg(dir.join("sim")));
         let out = dir.join("empty");
         replay(&dir.join("sim/dataset"), &out, &[]);

@@ -52,28 +52,74 @@ fn congruence_everywhere(p: &mut Covariance, d: &ErrorState, u: &Vec3, s: f32) {
     }
 }
 
-#[test]
-fn the_heading_rows_are_the_blocks_of_n() {
-    // Every row in exactly one run; the runs of `ON` are `N`'s blocks.
+/// The rows of the runs `runs`, and how often each row is in one.
+fn rows(runs: &[(usize, usize)]) -> [u8; DIM] {
     let mut seen = [0u8; DIM];
-    for &(a, e) in ON.iter().chain(&OFF) {
+    for &(a, e) in runs {
         seen[a..e].iter_mut().for_each(|k| *k += 1);
     }
-    assert_eq!(seen, [1; DIM]);
-    let on = ON.iter().flat_map(|&(a, e)| a..e);
-    let off = OFF.iter().flat_map(|&(a, e)| a..e);
-    assert_eq!(on.clone().count(), 3 * ON_BLOCKS.len());
-    assert!(ON_BLOCKS.iter().all(|&b| on.clone().any(|i| i == b)));
+    seen
+}
+
+#[test]
+fn the_heading_rows_are_the_blocks_of_n() {
+    // Every row in exactly one run, with the clone or without it.
+    let count = |on: &[(usize, usize)], off: &[(usize, usize)]| {
+        let (a, b) = (rows(on), rows(off));
+        core::array::from_fn::<u8, DIM, _>(|i| a[i] + b[i])
+    };
+    assert_eq!(count(&ON, &OFF), [1; DIM]);
+    assert_eq!(count(&ON_NO_CLONE, &OFF_NO_CLONE), [1; DIM]);
+    let on = rows(&ON);
+    let without_clone = rows(&ON_NO_CLONE);
+    for i in 0..DIM {
+        assert_eq!(
+            without_clone[i] == 1,
+            on[i] == 1 && !CLONE.contains(&i),
+            "row {i}"
+        );
+    }
+    // `N` is nonzero exactly on the runs, but for the vertical parts of
+    // the crossed vectors.
     let mut rng = Rng(0x5eed_1234);
     for _ in 0..20 {
         let n = heading_direction(&state(&mut rng));
-        for i in off.clone() {
-            assert_eq!(n[i], 0.0, "row {i}");
-        }
-        for i in on.clone() {
-            // Only the vertical parts of the crossed vectors are zero.
+        for i in 0..DIM {
             let vertical = [P + 2, V + 2, G + 2, CP + 2].contains(&i);
-            assert_eq!(n[i] == 0.0, vertical, "row {i}");
+            assert_eq!(n[i] != 0.0, on[i] == 1 && !vertical, "row {i}");
+        }
+    }
+}
+
+#[test]
+fn a_decoupled_clone_keeps_its_zero_rows() {
+    let mut rng = Rng(0xdec0_0b1e);
+    for case in 0..10 {
+        let mut p = covariance(&mut rng);
+        // Decoupled: the clone's rows and columns zero outside its block.
+        for i in CLONE {
+            for j in 0..DIM {
+                if !CLONE.contains(&j) {
+                    p[(i, j)] = 0.0;
+                    p[(j, i)] = 0.0;
+                }
+            }
+        }
+        let (xa, xb) = (state(&mut rng), state(&mut rng));
+        let mut d = heading_direction(&xa) - heading_direction(&xb);
+        d.rows_range_mut(CLONE).fill(0.0);
+        let u = attitude_weights(&heading_direction(&xb)).unwrap();
+        let s = heading_variance(&p, &u).unwrap();
+        let (mut fast, mut full) = (p, p);
+        rank_one_congruence(&mut fast, &d, &u, s);
+        congruence_everywhere(&mut full, &d, &u, s);
+        for i in 0..DIM {
+            for j in 0..DIM {
+                assert_eq!(fast[(i, j)], full[(i, j)], "case {case} ({i}, {j})");
+                if CLONE.contains(&i) != CLONE.contains(&j) {
+                    assert_eq!(fast[(i, j)].to_bits(), 0, "case {case} ({i}, {j})");
+                }
+            }
         }
     }
 }

@@ -33,7 +33,9 @@ pub fn simulate_slip_12s() -> Command {
 
 /// An empty scratch folder `<temp>/<prefix>-<name>-<random>`, removed with
 /// everything in it when the value is dropped (at the end of the test,
-/// passed or failed). Derefs to its path.
+/// passed or failed). Derefs to its path; keep it bound for as long as
+/// the folder is used (a temporary is dropped, and the folder removed, at
+/// the end of its statement).
 pub fn scratch(prefix: &str, name: &str) -> Scratch {
     Scratch(
         tempfile::Builder::new()
@@ -44,6 +46,7 @@ pub fn scratch(prefix: &str, name: &str) -> Scratch {
 }
 
 /// A scratch folder (see [`scratch`]).
+#[must_use]
 pub struct Scratch(tempfile::TempDir);
 
 impl std::ops::Deref for Scratch {
