@@ -88,6 +88,9 @@ pub mod vibration;
 pub mod wheel;
 pub mod zupt;
 
+#[cfg(test)]
+mod test_rng;
+
 pub use aid_status::{
     AidOutcome, AidStatus, CameraStatus, FloorStatus, FlowStatus, WheelStatus, ZuptStatus,
 };

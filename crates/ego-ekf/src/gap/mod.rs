@@ -27,7 +27,7 @@ pub mod odometry;
 pub mod wheel_bridge;
 
 #[cfg(test)]
-mod test_support;
+pub(crate) mod test_support;
 
 pub use constant_velocity::bridge_gap;
 pub use dead_reckoning::{DeadReckoning, WheelGeometry};

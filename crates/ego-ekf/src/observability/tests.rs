@@ -1,26 +1,9 @@
 //! Unit tests of the parent module: the structured congruence against the
 //! entry-by-entry formula over all of `P` and against `F P F^T` in `f64`.
 use super::*;
+use crate::gap::test_support::random_covariance;
 
-/// xorshift in [-0.5, 0.5).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-    }
-    fn vec3(&mut self, scale: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * scale
-    }
-}
-
-/// A symmetric positive definite `P` with correlations everywhere.
-fn covariance(rng: &mut Rng) -> Covariance {
-    let a = Covariance::from_fn(|_, _| rng.next());
-    a * a.transpose() * (1.0 / DIM as f32) + Covariance::identity() * 1e-3
-}
+use crate::test_rng::Rng;
 
 /// A state with every block of `N` moved away from zero.
 fn state(rng: &mut Rng) -> NominalState {
@@ -95,7 +78,7 @@ fn the_heading_rows_are_the_blocks_of_n() {
 fn a_decoupled_clone_keeps_its_zero_rows() {
     let mut rng = Rng(0xdec0_0b1e);
     for case in 0..10 {
-        let mut p = covariance(&mut rng);
+        let mut p = random_covariance(0xdec0 + case);
         // Decoupled: the clone's rows and columns zero outside its block.
         for i in CLONE {
             for j in 0..DIM {
@@ -128,7 +111,7 @@ fn a_decoupled_clone_keeps_its_zero_rows() {
 fn the_congruence_is_the_whole_expression_on_every_entry() {
     let mut rng = Rng(0x0bad_cafe);
     for case in 0..20 {
-        let p0 = covariance(&mut rng);
+        let p0 = random_covariance(0x0bad + case);
         let (xa, xb) = (state(&mut rng), state(&mut rng));
         let mut d = heading_direction(&xa) - heading_direction(&xb);
         if case % 2 == 1 {

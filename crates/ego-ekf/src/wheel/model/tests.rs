@@ -3,19 +3,7 @@ use super::*;
 use crate::state::Quat;
 use vslam_core::Timestamp;
 
-/// xorshift in [-0.5, 0.5).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-    }
-    fn vec3(&mut self, scale: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * scale
-    }
-}
+use crate::test_rng::Rng;
 
 impl WheelRows {
     /// The row-by-row form with nalgebra's operators (before the
