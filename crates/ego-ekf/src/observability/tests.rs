@@ -74,6 +74,27 @@ fn the_heading_rows_are_the_blocks_of_n() {
     }
 }
 
+/// `p` after the re-anchoring of an update between two random states, by
+/// [`rank_one_congruence`] and by [`congruence_everywhere`], with the
+/// `d` and `u` used; `d` zero on the clone unless `clone_moves`.
+fn both_forms(
+    p: &Covariance,
+    rng: &mut Rng,
+    clone_moves: bool,
+) -> (Covariance, Covariance, (ErrorState, Vec3)) {
+    let (xa, xb) = (state(rng), state(rng));
+    let mut d = heading_direction(&xa) - heading_direction(&xb);
+    if !clone_moves {
+        d.rows_range_mut(CLONE).fill(0.0);
+    }
+    let u = attitude_weights(&heading_direction(&xb)).unwrap();
+    let s = heading_variance(p, &u).unwrap();
+    let (mut fast, mut full) = (*p, *p);
+    rank_one_congruence(&mut fast, &d, &u, s);
+    congruence_everywhere(&mut full, &d, &u, s);
+    (fast, full, (d, u))
+}
+
 #[test]
 fn a_decoupled_clone_keeps_its_zero_rows() {
     let mut rng = Rng(0xdec0_0b1e);
@@ -88,14 +109,7 @@ fn a_decoupled_clone_keeps_its_zero_rows() {
                 }
             }
         }
-        let (xa, xb) = (state(&mut rng), state(&mut rng));
-        let mut d = heading_direction(&xa) - heading_direction(&xb);
-        d.rows_range_mut(CLONE).fill(0.0);
-        let u = attitude_weights(&heading_direction(&xb)).unwrap();
-        let s = heading_variance(&p, &u).unwrap();
-        let (mut fast, mut full) = (p, p);
-        rank_one_congruence(&mut fast, &d, &u, s);
-        congruence_everywhere(&mut full, &d, &u, s);
+        let (fast, full, _) = both_forms(&p, &mut rng, false);
         for i in 0..DIM {
             for j in 0..DIM {
                 assert_eq!(fast[(i, j)], full[(i, j)], "case {case} ({i}, {j})");
@@ -112,16 +126,7 @@ fn the_congruence_is_the_whole_expression_on_every_entry() {
     let mut rng = Rng(0x0bad_cafe);
     for case in 0..20 {
         let p0 = random_covariance(0x0bad + case);
-        let (xa, xb) = (state(&mut rng), state(&mut rng));
-        let mut d = heading_direction(&xa) - heading_direction(&xb);
-        if case % 2 == 1 {
-            d.rows_range_mut(CLONE).fill(0.0);
-        }
-        let u = attitude_weights(&heading_direction(&xb)).unwrap();
-        let s = heading_variance(&p0, &u).unwrap();
-        let (mut fast, mut full) = (p0, p0);
-        rank_one_congruence(&mut fast, &d, &u, s);
-        congruence_everywhere(&mut full, &d, &u, s);
+        let (fast, full, (d, u)) = both_forms(&p0, &mut rng, case % 2 == 0);
         for j in 0..DIM {
             for i in 0..DIM {
                 // Equal (a zero's sign aside) to the expression with its
