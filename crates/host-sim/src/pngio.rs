@@ -105,8 +105,8 @@ mod tests {
 
     #[test]
     fn round_trip_and_bad_file() {
-        let dir = std::env::temp_dir().join(format!("host-sim-png-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let img = GrayImage {
             width: 3,
             height: 2,
@@ -120,6 +120,5 @@ mod tests {
         let e = load_gray(&bad).unwrap_err();
         assert!(e.to_string().contains("bad.png"), "{e}");
         assert_eq!(e.exit_code(), 2);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -73,8 +73,8 @@ mod tests {
 
     #[test]
     fn an_empty_trajectory_writes_no_file() {
-        let dir = std::env::temp_dir().join(format!("traction-tum-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let path = dir.join("empty.tum");
         let one = TumPose {
             t: Timestamp(1_500_000_000),
@@ -89,7 +89,6 @@ mod tests {
         write_tum(&path, &[]).unwrap();
         assert!(!path.exists(), "an empty trajectory left a file");
         write_tum(&path, &[]).unwrap();
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! `host-sim homography MATCHES`: run as a program on files written here.
 
 use nalgebra::{Matrix3, Vector3};
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-cli-h-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch folder for one test, removed when it is dropped.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("host-sim-cli-h-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn run(args: &[&str]) -> Output {
@@ -68,7 +69,8 @@ fn matches_file() -> (String, Vec<u8>) {
 
 #[test]
 fn recovers_h_and_exact_inlier_flags() {
-    let dir = temp_dir("ok");
+    let scratch = temp_dir("ok");
+    let dir = scratch.path();
     let path = dir.join("matches.txt");
     let (text, flags) = matches_file();
     assert_eq!(flags.iter().filter(|f| **f == 1).count(), 30);
@@ -111,12 +113,12 @@ fn recovers_h_and_exact_inlier_flags() {
     assert!(human.status.success());
     let s = String::from_utf8_lossy(&human.stdout);
     assert!(s.contains("38 matches, 30 inliers"), "{s}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn malformed_line_names_file_and_line() {
-    let dir = temp_dir("bad");
+    let scratch = temp_dir("bad");
+    let dir = scratch.path();
     let path = dir.join("bad.txt");
     std::fs::write(&path, "# header\n1 2 3 4\n1 2 x 4\n5 6 7 8\n").unwrap();
     let out = run(&["homography", path.to_str().unwrap(), "--json"]);
@@ -124,12 +126,12 @@ fn malformed_line_names_file_and_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.txt:3:"), "{err}");
     assert!(out.stdout.is_empty());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn too_few_matches_is_no_result() {
-    let dir = temp_dir("few");
+    let scratch = temp_dir("few");
+    let dir = scratch.path();
     let path = dir.join("three.txt");
     std::fs::write(&path, "0 0 1 1\n10 0 11 1\n0 10 1 11\n").unwrap();
     let out = run(&["homography", path.to_str().unwrap(), "--json"]);
@@ -143,12 +145,12 @@ fn too_few_matches_is_no_result() {
     let out = run(&["homography", missing.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.txt"));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn collinear_matches_are_no_result() {
-    let dir = temp_dir("line");
+    let scratch = temp_dir("line");
+    let dir = scratch.path();
     let path = dir.join("line.txt");
     let text: String = (0..12)
         .map(|i| format!("{} {} {} {}\n", 10 * i, 5 * i, 10 * i + 3, 5 * i + 1))
@@ -163,5 +165,4 @@ fn collinear_matches_are_no_result() {
     );
     assert!(out.stdout.is_empty());
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("host-sim: no homography"));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -3,7 +3,7 @@
 
 use host_sim::pngio::{GrayImage, load_gray, save_gray};
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 const W: usize = 320;
@@ -11,17 +11,14 @@ const H: usize = 240;
 /// Top-left corner of the crop in the 512x512 photograph.
 const ORIGIN: (f64, f64) = (96.0, 136.0);
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-sim-cli-t-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// Removes a test's files, unless `KEEP` is set (to rerun the program on them).
-fn cleanup(dir: &Path) {
-    if std::env::var_os("KEEP").is_none() {
-        let _ = std::fs::remove_dir_all(dir);
-    }
+/// A scratch folder for one test, removed when it is dropped unless `KEEP`
+/// is set (to rerun the program on its files).
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("host-sim-cli-t-{name}-"))
+        .disable_cleanup(std::env::var_os("KEEP").is_some())
+        .tempdir()
+        .unwrap()
 }
 
 fn run(args: &[&str]) -> Output {
@@ -130,8 +127,9 @@ fn recovers_a_known_homography() {
     let p = Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 2e-5, -1e-5, 1.0);
     let truth = p * c * a * c.try_inverse().unwrap();
 
-    let dir = temp_dir("known");
-    let (i1, i2) = save_pair(&dir, &truth);
+    let scratch = temp_dir("known");
+    let dir = scratch.path();
+    let (i1, i2) = save_pair(dir, &truth);
     let v = track_json(&["track", &i1, &i2, "--json"]);
 
     let h = numbers(&v["homography"]);
@@ -182,7 +180,6 @@ fn recovers_a_known_homography() {
         serde_json::from_slice::<serde_json::Value>(&again.stdout).unwrap(),
         v
     );
-    cleanup(&dir);
 }
 
 /// Angle of `a^T b`, degrees.
@@ -204,8 +201,9 @@ fn decomposes_a_plane_induced_homography() {
     let n = Vector3::new(0.05, -0.1, 1.0).normalize();
     let truth = k * (r + t_over_d * n.transpose()) * k.try_inverse().unwrap();
 
-    let dir = temp_dir("plane");
-    let (i1, i2) = save_pair(&dir, &truth);
+    let scratch = temp_dir("plane");
+    let dir = scratch.path();
+    let (i1, i2) = save_pair(dir, &truth);
     let intr = format!("{fu},{fv},{cu},{cv}");
     let v = track_json(&["track", &i1, &i2, "--intrinsics", &intr, "--json"]);
 
@@ -274,12 +272,12 @@ fn decomposes_a_plane_induced_homography() {
     ]);
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains(&format!("selected: #{best}")), "{s}");
-    cleanup(&dir);
 }
 
 #[test]
 fn bad_files_exit_2_naming_the_file() {
-    let dir = temp_dir("bad");
+    let scratch = temp_dir("bad");
+    let dir = scratch.path();
     let good = dir.join("good.png");
     save_gray(&good, &image_pair(&Matrix3::identity()).0).unwrap();
     let good = good.to_str().unwrap();
@@ -311,12 +309,12 @@ fn bad_files_exit_2_naming_the_file() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("small.png") && err.contains("64x48"), "{err}");
-    cleanup(&dir);
 }
 
 #[test]
 fn no_texture_is_no_result_without_output() {
-    let dir = temp_dir("flat");
+    let scratch = temp_dir("flat");
+    let dir = scratch.path();
     let flat = dir.join("flat.png");
     save_gray(
         &flat,
@@ -332,7 +330,6 @@ fn no_texture_is_no_result_without_output() {
     assert_eq!(out.status.code(), Some(1));
     assert!(out.stdout.is_empty());
     assert!(!out.stderr.is_empty());
-    cleanup(&dir);
 }
 
 #[test]

@@ -108,18 +108,17 @@ mod tests {
 
     #[test]
     fn labels_round_trip_with_any_text() {
-        let d = std::env::temp_dir().join(format!("host-sim-labels-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let d = scratch.path();
         let mut l = Labels::default();
         l.set("terrain", "ICE")
             .set("source", "borealtc: a: \"b\", #c")
             .note("no IMU: wheels only");
-        l.write(&d).unwrap();
-        assert_eq!(Labels::read(&d).unwrap(), Some(l.clone()));
+        l.write(d).unwrap();
+        assert_eq!(Labels::read(d).unwrap(), Some(l.clone()));
         assert!(l.summary().contains("terrain: ICE\n"));
         std::fs::write(d.join(LABELS_FILE), "terrain: [1, 2]\n").unwrap();
-        let e = Labels::read(&d).unwrap_err().to_string();
+        let e = Labels::read(d).unwrap_err().to_string();
         assert!(e.contains("labels.yaml:1: `terrain`"), "{e}");
-        let _ = std::fs::remove_dir_all(&d);
     }
 }

@@ -53,8 +53,8 @@ mod tests {
 
     #[test]
     fn the_file_reads_back_and_refuses_bad_values() {
-        let d = std::env::temp_dir().join(format!("host-sim-geometry-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let d = scratch.path();
         let p = d.join("wheels.yaml");
         let g = WheelGeometry {
             radius_left: 0.0419,
@@ -70,6 +70,5 @@ mod tests {
         .unwrap();
         let e = WheelGeometry::read(&p).unwrap_err();
         assert!(e.to_string().contains("wheel_radius_right"), "{e}");
-        let _ = std::fs::remove_dir_all(&d);
     }
 }

@@ -181,18 +181,18 @@ mod tests {
         assert!(scene.rooms.iter().any(|r| r.surface == "carpet"));
         assert!(scene.strips.iter().any(|s| !s.threshold), "the cable");
         assert!(scene.episodes.iter().any(|e| e.kind == "stuck"));
-        let dir = std::env::temp_dir().join(format!("scene-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        scene.write(&dir).unwrap();
-        assert_eq!(Scene::read(&dir).unwrap(), Some(scene));
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
+        scene.write(dir).unwrap();
+        assert_eq!(Scene::read(dir).unwrap(), Some(scene));
         std::fs::write(dir.join(SCENE_FILE), "{").unwrap();
-        assert!(Scene::read(&dir).is_err());
+        assert!(Scene::read(dir).is_err());
         let mut bad = Scene::of(&sc);
         bad.rooms[0].max[0] = bad.rooms[0].min[0];
-        bad.write(&dir).unwrap();
-        let e = Scene::read(&dir).unwrap_err().to_string();
+        bad.write(dir).unwrap();
+        let e = Scene::read(dir).unwrap_err().to_string();
         assert!(e.contains("world.json") && e.contains("room 0"), "{e}");
-        std::fs::remove_dir_all(&dir).unwrap();
-        assert_eq!(Scene::read(&dir).unwrap(), None);
+        std::fs::remove_dir_all(dir).unwrap();
+        assert_eq!(Scene::read(dir).unwrap(), None);
     }
 }

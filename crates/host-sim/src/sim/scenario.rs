@@ -468,13 +468,13 @@ mod tests {
 
     #[test]
     fn short_scenario_round_trips_through_asl() {
-        let dir = std::env::temp_dir().join(format!("host-sim-scenario-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let mut sc = Scenario::by_name("short").unwrap();
         sc.script.duration = 2.0;
-        let (ds, truth) = generate(&sc, 7, &dir).unwrap();
-        write_dataset(&dir, &ds).unwrap();
-        let back = read_dataset(&dir).unwrap();
+        let (ds, truth) = generate(&sc, 7, dir).unwrap();
+        write_dataset(dir, &ds).unwrap();
+        let back = read_dataset(dir).unwrap();
         assert_eq!(back.imu.as_ref().map(|x| x.1.len()), Some(501));
         assert_eq!(back.wheel.as_ref().map(|x| x.1.len()), Some(101));
         assert_eq!(back.cam.as_ref().map(|x| x.1.len()), Some(21));
@@ -487,19 +487,18 @@ mod tests {
         assert!(back.missing().is_empty());
         assert_eq!(truth.len(), 2001);
         // Same seed, same data.
-        let (again, _) = generate(&sc, 7, &dir).unwrap();
+        let (again, _) = generate(&sc, 7, dir).unwrap();
         assert!(again.imu == ds.imu, "same seed gave different IMU data");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
     fn generation_counts_streams_and_images_on_its_bars() {
-        let dir = std::env::temp_dir().join(format!("host-sim-progress-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let scratch = tempfile::tempdir().unwrap();
+        let dir = scratch.path();
         let mut sc = Scenario::by_name("short").unwrap();
         sc.script.duration = 2.0;
         let progress = Progress::hidden();
-        let (ds, _, _) = generate_with(&sc, 7, &dir, &FaultPlan::none(), &progress).unwrap();
+        let (ds, _, _) = generate_with(&sc, 7, dir, &FaultPlan::none(), &progress).unwrap();
         let images = ds.cam.as_ref().map_or(0, |x| x.1.len())
             + ds.seg.as_ref().map_or(0, |x| x.1.len())
             + ds.cam1.as_ref().map_or(0, |x| x.1.len());
@@ -527,6 +526,5 @@ mod tests {
                 .iter()
                 .all(|b| b.is_hidden() && b.is_finished())
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
