@@ -12,10 +12,12 @@
 //!   rolling over a 1 cm edge at 0.3 m/s), then a refractory time and a
 //!   hysteresis (the deviation must fall below the re-arm level) make one bump
 //!   one event;
-//! - the peak is [`JoltKind::SurfaceNoise`] if the floor explains it,
-//!   [`JoltKind::ThresholdStrip`] if it is larger but lies within a
-//!   configured time or distance of a floor-boundary crossing and below what a
-//!   threshold strip explains, and [`JoltKind::SuspectedObstacle`] otherwise;
+//! - the peak is [`JoltKind::SurfaceNoise`] if the floor explains it (or
+//!   [`JoltKind::ThresholdStrip`] if that floor is a threshold strip: the
+//!   robot is on one), [`JoltKind::ThresholdStrip`] if it is larger but
+//!   lies within a configured time or distance of a floor-boundary crossing
+//!   and below what a threshold strip explains, and
+//!   [`JoltKind::SuspectedObstacle`] otherwise;
 //! - every event is counted by kind and kept in a small fixed-size log that
 //!   drops (and counts) its oldest entry when full.
 //!
@@ -41,7 +43,8 @@ pub enum JoltKind {
     /// Within what the floor explains (carpet pile, tile grout).
     SurfaceNoise = 1,
     /// Larger than the floor explains, but at a floor boundary and within what
-    /// a threshold strip explains.
+    /// a threshold strip explains; or within what the floor explains when
+    /// that floor is a threshold strip (the robot on the strip).
     ThresholdStrip = 2,
 }
 
@@ -237,10 +240,16 @@ impl JoltConfig {
             })
     }
 
-    /// Judges a peak at `t` in a context.
+    /// Judges a peak at `t` in a context. A jolt the floor explains is
+    /// the strip's when the floor in view is a threshold strip (the robot
+    /// on it), else the floor's noise.
     pub fn classify(&self, t: Timestamp, magnitude: f32, ctx: &JoltContext) -> JoltKind {
         if magnitude <= ctx.jolt_threshold {
-            JoltKind::SurfaceNoise
+            if ctx.surface == Some(SurfaceKind::Threshold) {
+                JoltKind::ThresholdStrip
+            } else {
+                JoltKind::SurfaceNoise
+            }
         } else if magnitude <= ctx.strip_threshold && self.near_crossing(t, ctx) {
             JoltKind::ThresholdStrip
         } else {

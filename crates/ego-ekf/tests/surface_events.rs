@@ -187,6 +187,22 @@ fn jolts_near_a_boundary_crossing_are_threshold_strips() {
         cfg.classify(at(10.1), 6.0, &JoltContext::fixed(2.0)),
         JoltKind::SuspectedObstacle
     );
+    // On the strip itself: a jolt the strip explains is the strip's, one
+    // larger than it explains an obstacle.
+    let on_strip = JoltContext {
+        jolt_threshold: 8.0,
+        surface: Some(SurfaceKind::Threshold),
+        last_crossing: None,
+        ..ctx
+    };
+    assert_eq!(
+        cfg.classify(at(20.0), 6.0, &on_strip),
+        JoltKind::ThresholdStrip
+    );
+    assert_eq!(
+        cfg.classify(at(20.0), 9.5, &on_strip),
+        JoltKind::SuspectedObstacle
+    );
 }
 
 /// The surface-adaptivity scenario. The robot drives at 0.2 m/s over wood
