@@ -17,7 +17,10 @@
 //!   robot is on one), [`JoltKind::ThresholdStrip`] if it is larger but
 //!   lies within a configured time or distance of a floor-boundary crossing
 //!   and below what a threshold strip explains, and
-//!   [`JoltKind::SuspectedObstacle`] otherwise;
+//!   [`JoltKind::SuspectedObstacle`] otherwise; a strip is narrow, so as the
+//!   floor in view it explains a jolt only near a crossing (elsewhere the
+//!   floor beside it does: a segmenter that takes a floor for a strip cannot
+//!   explain a cable away);
 //! - every event is counted by kind and kept in a small fixed-size log that
 //!   drops (and counts) its oldest entry when full.
 //!
@@ -240,17 +243,27 @@ impl JoltConfig {
             })
     }
 
-    /// Judges a peak at `t` in a context. A jolt the floor explains is
-    /// the strip's when the floor in view is a threshold strip (the robot
-    /// on it), else the floor's noise.
+    /// Judges a peak at `t` in a context. A threshold strip is narrow: as
+    /// the floor in view it explains a jolt only at a floor boundary, and
+    /// away from one the floor beside it does ([`JoltContext::floor_jolt_threshold`]:
+    /// a segmenter that takes a whole floor for a strip cannot explain a
+    /// cable away). A jolt explained while the floor in view is a strip is
+    /// the strip's.
     pub fn classify(&self, t: Timestamp, magnitude: f32, ctx: &JoltContext) -> JoltKind {
-        if magnitude <= ctx.jolt_threshold {
-            if ctx.surface == Some(SurfaceKind::Threshold) {
+        let on_strip = ctx.surface == Some(SurfaceKind::Threshold);
+        let near = || self.near_crossing(t, ctx);
+        let explained = if on_strip && !near() {
+            ctx.floor_jolt_threshold
+        } else {
+            ctx.jolt_threshold
+        };
+        if magnitude <= explained {
+            if on_strip {
                 JoltKind::ThresholdStrip
             } else {
                 JoltKind::SurfaceNoise
             }
-        } else if magnitude <= ctx.strip_threshold && self.near_crossing(t, ctx) {
+        } else if magnitude <= ctx.strip_threshold && near() {
             JoltKind::ThresholdStrip
         } else {
             JoltKind::SuspectedObstacle

@@ -158,6 +158,7 @@ proptest! {
         let mut m = JoltMonitor::<4>::new(JoltConfig::default());
         let ctx = JoltContext {
             jolt_threshold: threshold,
+            floor_jolt_threshold: threshold,
             strip_threshold: strip,
             surface: None,
             last_crossing: crossing.map(Timestamp),

@@ -14,6 +14,11 @@ use crate::grip::GripParams;
 pub struct JoltContext {
     /// The jolt the current floor explains, m/s^2.
     pub jolt_threshold: f32,
+    /// The jolt the current floor explains without a threshold strip's
+    /// share of it (the floors beside the strip; the conservative default
+    /// when the strip is all of it), m/s^2. A strip explains jolts only at a
+    /// floor boundary ([`crate::events`]).
+    pub floor_jolt_threshold: f32,
     /// The jolt a threshold strip explains, m/s^2.
     pub strip_threshold: f32,
     /// The dominant floor, if known.
@@ -31,6 +36,7 @@ impl JoltContext {
     pub fn fixed(jolt_threshold: f32) -> Self {
         JoltContext {
             jolt_threshold,
+            floor_jolt_threshold: jolt_threshold,
             strip_threshold: jolt_threshold,
             surface: None,
             last_crossing: None,

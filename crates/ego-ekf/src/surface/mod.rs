@@ -280,8 +280,26 @@ impl SurfaceModel {
             .table
             .params(SurfaceKind::Threshold, self.wheel, 1.0)
             .jolt_threshold();
+        // The floors beside a strip: the mix without the strip's share.
+        let floor = match state.mix {
+            Some(mix) if mix.fraction(SurfaceKind::Threshold) > 0.0 => {
+                let mut w = *mix.fractions();
+                if let Some(s) = w.get_mut(SurfaceKind::Threshold.index()) {
+                    *s = 0.0;
+                }
+                match SurfaceMix::from_weights(&w) {
+                    Some(m) => self.params_for(&SurfaceState {
+                        mix: Some(m),
+                        ..state
+                    }),
+                    None => self.fallback,
+                }
+            }
+            _ => params,
+        };
         JoltContext {
             jolt_threshold: params.jolt_threshold(),
+            floor_jolt_threshold: floor.jolt_threshold().min(params.jolt_threshold()),
             strip_threshold: strip.max(params.jolt_threshold()),
             surface: state.dominant(),
             last_crossing: self.tracker.last_crossing(t),
