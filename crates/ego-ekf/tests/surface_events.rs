@@ -322,6 +322,35 @@ fn carpet_and_a_threshold_strip_raise_no_obstacle_with_surface_aware_thresholds(
     }
 }
 
+/// The jolt events of `signal` judged against a surface model that sees
+/// the 32x48 map `floor` at about 4 Hz while the robot drives at 0.2 m/s;
+/// `each` sees every step's context. Returns the events and the model.
+fn events_on_one_floor(
+    signal: &[f64],
+    floor: &[u8],
+    mut each: impl FnMut(&JoltContext),
+) -> (Vec<JoltEvent>, SurfaceModel) {
+    let mut cfg = SurfaceConfig::new(WheelType::HardRubber, classes());
+    cfg.camera = camera();
+    let mut model = SurfaceModel::new(cfg);
+    let mut m = JoltMonitor::<16>::new(JoltConfig::default());
+    let mut events = Vec::new();
+    for (k, v) in signal.iter().enumerate() {
+        let t = t_of(k);
+        if k % 63 == 0 {
+            model
+                .on_segmentation(t, &LabelView::new(floor, 32, 48, 32).unwrap(), 0.2)
+                .unwrap();
+        }
+        let ctx = model.jolt_context(t, 0.2);
+        each(&ctx);
+        if let Some(e) = m.push(t, v.abs() as f32, &ctx).unwrap() {
+            events.push(e);
+        }
+    }
+    (events, model)
+}
+
 #[test]
 fn a_cable_is_still_an_obstacle_on_wood_and_on_carpet() {
     // Wood only, with a cable (a sharp 7 m/s^2, 25 ms jolt) at 1.0 s.
@@ -329,26 +358,8 @@ fn a_cable_is_still_an_obstacle_on_wood_and_on_carpet() {
     let mut r = rng(21);
     let mut s = vibration(&mut r, 0.3, n);
     add_jolt(&mut s, 1.0, 0.025, 7.0);
-    let mut cfg = SurfaceConfig::new(WheelType::HardRubber, classes());
-    cfg.camera = camera();
-    let mut model = SurfaceModel::new(cfg);
     let floor = map(32, 48, |_, y| if y < 19 { WALL } else { WOOD });
-    let mut m = JoltMonitor::<16>::new(JoltConfig::default());
-    let mut events = Vec::new();
-    for (k, v) in s.iter().enumerate() {
-        let t = t_of(k);
-        if k % 63 == 0 {
-            model
-                .on_segmentation(t, &LabelView::new(&floor, 32, 48, 32).unwrap(), 0.2)
-                .unwrap();
-        }
-        if let Some(e) = m
-            .push(t, v.abs() as f32, &model.jolt_context(t, 0.2))
-            .unwrap()
-        {
-            events.push(e);
-        }
-    }
+    let (events, _) = events_on_one_floor(&s, &floor, |_| {});
     let obstacles: Vec<_> = events
         .iter()
         .filter(|e| e.kind == JoltKind::SuspectedObstacle)
@@ -381,25 +392,10 @@ fn a_floor_taken_for_a_strip_does_not_explain_a_cable() {
     let mut r = rng(41);
     let mut s = vibration(&mut r, 0.3, n);
     add_jolt(&mut s, 4.0, 0.025, 6.4);
-    let mut cfg = SurfaceConfig::new(WheelType::HardRubber, classes());
-    cfg.camera = camera();
-    let mut model = SurfaceModel::new(cfg);
     let strip_floor = map(32, 48, |_, y| if y < 19 { WALL } else { STRIP });
-    let mut m = JoltMonitor::<16>::new(JoltConfig::default());
-    let mut events = Vec::new();
-    for (k, v) in s.iter().enumerate() {
-        let t = t_of(k);
-        if k % 63 == 0 {
-            model
-                .on_segmentation(t, &LabelView::new(&strip_floor, 32, 48, 32).unwrap(), 0.2)
-                .unwrap();
-        }
-        let ctx = model.jolt_context(t, 0.2);
+    let (events, model) = events_on_one_floor(&s, &strip_floor, |ctx| {
         assert_eq!(ctx.surface, Some(SurfaceKind::Threshold));
-        if let Some(e) = m.push(t, v.abs() as f32, &ctx).unwrap() {
-            events.push(e);
-        }
-    }
+    });
     let cable: Vec<_> = events
         .iter()
         .filter(|e| (e.t.seconds_since(Timestamp(0)).unwrap() - 4.0125).abs() < 0.05)
