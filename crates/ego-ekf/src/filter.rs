@@ -473,7 +473,11 @@ impl EgoEkf {
         // A time stamp the clock refuses is refused for that reason, not judged.
         let in_order = self.imu_clock.follows(sample.t());
         if in_order && let Some(cfg) = &self.config.imu.plausibility {
-            self.plausibility.check(cfg, sample)?;
+            // The vertical in the IMU's frame, once the attitude is known.
+            let up = self
+                .initialised
+                .then(|| self.x.q_wb.inverse_transform_vector(&Vec3::z()));
+            self.plausibility.check(cfg, sample, up.as_ref())?;
         }
         let dt = self.imu_clock.accept(sample.t());
         if in_order {

@@ -380,7 +380,7 @@ impl FaultKind {
             ImuNan => "gyro x NaN in COUNT samples -> non_finite",
             ImuInf => "accel y +inf in COUNT samples -> non_finite",
             ImuOutlier => {
-                "gyro z x100 in COUNT samples -> out_of_range (a rate jump the robot cannot make; saturated beyond full scale; a spike within twice the allowed change is not judged)"
+                "gyro z x100 in COUNT samples -> out_of_range (a rate or yaw-rate jump the robot cannot make; saturated beyond full scale; a spike within twice the allowed change is not judged)"
             }
             ImuSaturated => "gyro z at full scale for DUR (default 0.5 s) -> saturated",
             ImuStuck => {

@@ -101,7 +101,9 @@ impl SensorSample for RawImuSample {
     /// A frozen reading is judged once the filter's plausibility check
     /// can tell (more than `frozen_after_ns` after the reading it repeats);
     /// a spike once it lies beyond twice the rate change the check allows
-    /// since the last reading before the fault, or at full scale.
+    /// since the last reading before the fault (the whole rate's, or the
+    /// yaw rate's about the simulated IMU's vertical z axis), or at full
+    /// scale.
     fn judged(&self, kind: FaultKind, before: Option<&Self>) -> bool {
         let check = ImuPlausibility::FIELD;
         let since = |b: &Self| self.t.0.saturating_sub(b.t.0);
@@ -113,7 +115,10 @@ impl SensorSample for RawImuSample {
                     .sum::<f32>()
                     .sqrt();
                 let full_scale = FilterConfig::default().imu.gyro_max;
-                self.gyro[2].abs() >= full_scale || jump > 2.0 * check.allowance(since(b))
+                let yaw_jump = (self.gyro[2] - b.gyro[2]).abs();
+                self.gyro[2].abs() >= full_scale
+                    || jump > 2.0 * check.allowance(since(b))
+                    || yaw_jump > 2.0 * check.yaw_allowance(since(b))
             }
             _ => true,
         }
