@@ -510,9 +510,11 @@ mod tests {
         assert_eq!(spoiled.len(), 20);
         assert_eq!(spoiled[0].t, Timestamp(220_000_000));
         // A hundredfold rate is judged when it lies beyond twice the change
-        // the filter allows (0.7 rad/s a 4 ms step): turning at 0.2 rad/s,
-        // not at 0.005 rad/s; the sample is spoiled either way.
-        for (rate, judged) in [(0.2f32, 3), (0.005, 0)] {
+        // the filter allows (0.7 rad/s a 4 ms step; about the vertical 0.18
+        // rad/s, then 0.26, 0.34 .. since the reading before): turning at
+        // 0.2 rad/s all three, at 0.005 rad/s the first (0.495 rad/s), at
+        // 0.001 rad/s none; the sample is spoiled either way.
+        for (rate, judged) in [(0.2f32, 3), (0.005, 1), (0.001, 0)] {
             let mut input = imu(200);
             input.iter_mut().for_each(|s| s.gyro[2] = rate);
             let (out, spoiled, _) =
