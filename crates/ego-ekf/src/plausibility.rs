@@ -16,7 +16,9 @@
 //!   on a bump: the rate change along the vertical (the filter's attitude
 //!   tells where it lies in the IMU's frame) is held to
 //!   `yaw_step_floor + max_yaw_accel * (t - t_accepted)`, refused as
-//!   [`Reject::OutOfRange`] beyond. A small spike in the yaw rate (a bit
+//!   [`Reject::OutOfRange`] beyond (a true change is accepted once the
+//!   allowance has grown to it: 45 ms for 1 rad/s from rest, the reading
+//!   that ends the pause integrating over it). A small spike in the yaw rate (a bit
 //!   error in a low bit, a glitch that multiplies a rate near zero) stays
 //!   within the whole rate's allowance and would otherwise turn the heading
 //!   unseen: 0.5 rad/s for 16 ms is half a degree.
