@@ -160,7 +160,7 @@ pub fn heading_direction(x: &NominalState) -> ErrorState {
 /// (so `F G N_b = N_a`; the nearest such `F` to the identity that reads
 /// only the attitude). The next transition and update, taken at `after`,
 /// are then blind to the direction the covariance kept unobserved. Dense
-/// over the rows of `N` ([`rank_one_congruence`]). A heading variance above
+/// over the rows of `N` (`rank_one_congruence`). A heading variance above
 /// [`MAX_REANCHOR_HEADING_VAR`] leaves `P` as it is; one above
 /// [`HEADING_HOLD_SLACK`] times `max_heading_var` after it is scaled back
 /// to `max_heading_var`, along `N(after)` only
