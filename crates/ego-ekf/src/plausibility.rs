@@ -102,18 +102,21 @@ impl ImuPlausibility {
 
     /// The rate change allowed `dt_ns` after the last accepted reading, rad/s.
     pub fn allowance(&self, dt_ns: u64) -> f32 {
-        // Through u32 (4.3 s, far beyond any step the filter integrates):
-        // one conversion instruction on a Cortex-M4F, not a library call.
-        let dt = u32::try_from(dt_ns).unwrap_or(u32::MAX) as f32 * 1e-9;
-        self.step_floor + self.max_angular_accel * dt
+        self.step_floor + self.max_angular_accel * seconds(dt_ns)
     }
 
     /// The yaw-rate change allowed `dt_ns` after the last accepted
     /// reading, rad/s.
     pub fn yaw_allowance(&self, dt_ns: u64) -> f32 {
-        let dt = u32::try_from(dt_ns).unwrap_or(u32::MAX) as f32 * 1e-9;
-        self.yaw_step_floor + self.max_yaw_accel * dt
+        self.yaw_step_floor + self.max_yaw_accel * seconds(dt_ns)
     }
+}
+
+/// `dt_ns` in seconds, through u32 (4.3 s, far beyond any step the filter
+/// integrates): one conversion instruction on a Cortex-M4F, not a library
+/// call.
+fn seconds(dt_ns: u64) -> f32 {
+    u32::try_from(dt_ns).unwrap_or(u32::MAX) as f32 * 1e-9
 }
 
 impl Default for ImuPlausibility {

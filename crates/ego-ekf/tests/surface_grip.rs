@@ -138,3 +138,17 @@ fn table_is_checked() {
         Err(GripTableError::Model)
     );
 }
+
+#[test]
+fn a_mix_without_a_kind_is_the_others_renormalised() {
+    let mix = SurfaceMix::from_weights(&[0.2, 0.3, 0.0, 0.0, 0.5]).unwrap();
+    let beside = mix.without(SurfaceKind::Threshold).unwrap();
+    assert!((beside.fraction(SurfaceKind::Wood) - 0.4).abs() < 1e-6);
+    assert!((beside.fraction(SurfaceKind::Carpet) - 0.6).abs() < 1e-6);
+    assert_eq!(beside.fraction(SurfaceKind::Threshold), 0.0);
+    assert!(
+        SurfaceMix::pure(SurfaceKind::Threshold)
+            .without(SurfaceKind::Threshold)
+            .is_none()
+    );
+}

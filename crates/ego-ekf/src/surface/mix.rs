@@ -59,6 +59,16 @@ impl SurfaceMix {
             .filter(|(_, f)| *f > 0.0)
     }
 
+    /// The mix of the other kinds, renormalised; `None` when `kind` is all
+    /// of it.
+    pub fn without(&self, kind: SurfaceKind) -> Option<SurfaceMix> {
+        let mut weights = self.fractions;
+        if let Some(w) = weights.get_mut(kind.index()) {
+            *w = 0.0;
+        }
+        SurfaceMix::from_weights(&weights)
+    }
+
     /// The kind with the largest fraction (the first one on ties).
     pub fn dominant(&self) -> SurfaceKind {
         let mut best = SurfaceKind::Wood;

@@ -283,13 +283,9 @@ impl SurfaceModel {
         // The floors beside a strip: the mix without the strip's share.
         let floor = match state.mix {
             Some(mix) if mix.fraction(SurfaceKind::Threshold) > 0.0 => {
-                let mut w = *mix.fractions();
-                if let Some(s) = w.get_mut(SurfaceKind::Threshold.index()) {
-                    *s = 0.0;
-                }
-                match SurfaceMix::from_weights(&w) {
-                    Some(m) => self.params_for(&SurfaceState {
-                        mix: Some(m),
+                match mix.without(SurfaceKind::Threshold) {
+                    Some(beside) => self.params_for(&SurfaceState {
+                        mix: Some(beside),
                         ..state
                     }),
                     None => self.fallback,
