@@ -762,11 +762,14 @@ impl<
 
     fn process_imu(&mut self, raw: &RawImuSample) -> Processed {
         let cfg = self.ekf.config();
-        let outcome =
-            ImuSample::with_range(raw, cfg.imu.gyro_max, cfg.imu.accel_max).and_then(|s| {
-                probed(&mut self.probe, Part::Propagate, || self.ekf.propagate(&s))
-                    .map(|step| (s, step))
-            });
+        let outcome = match ImuSample::with_range(raw, cfg.imu.gyro_max, cfg.imu.accel_max) {
+            Ok(s) => probed(&mut self.probe, Part::Propagate, || self.ekf.propagate(&s))
+                .map(|step| (s, step)),
+            Err(reason) => {
+                self.ekf.refused_imu_at(raw.t);
+                Err(reason)
+            }
+        };
         let mut jolt = None;
         if let Ok((sample, step)) = &outcome {
             let _ = probed(&mut self.probe, Part::ScaleImu, || {
@@ -1038,6 +1041,45 @@ mod construction_tests {
         let mut enough: EstimatorWith<'static, 64, 32, 16, 5> = EstimatorWith::unconfigured();
         assert_eq!(n, 5);
         assert!(enough.configure(&c).is_ok());
+    }
+
+    /// Readings refused at entry (here not finite) are held over like the
+    /// ones the EKF refuses: the reading after them turns the heading by
+    /// its own step only, as if the refused ones had been the true rate.
+    #[test]
+    fn readings_refused_at_entry_are_held_over() {
+        let c = config();
+        let run = |nan: bool| {
+            let mut est = Estimator::new(&c, None).unwrap();
+            for i in 0..600u64 {
+                // Still, then turning at 0.3 rad/s; from 500, four readings
+                // (not finite in the first run) and a spike 0.15 rad/s off.
+                let jitter = (i % 3) as f32 * 1e-4;
+                let gz = match i {
+                    0..300 => 0.0,
+                    500..504 if nan => f32::NAN,
+                    504 => 0.45,
+                    _ => 0.3,
+                };
+                est.offer_imu(RawImuSample {
+                    t: Timestamp(i * 4_000_000),
+                    gyro: [jitter, 0.0, gz],
+                    accel: [0.0, jitter, 9.81],
+                });
+                while est.poll().is_some() {}
+            }
+            assert!(est.ekf().is_initialised());
+            (
+                est.ekf().attitude().euler_angles().2,
+                est.counts()[Stream::Imu],
+            )
+        };
+        let (held, counts) = run(true);
+        let (clean, _) = run(false);
+        assert_eq!(counts.rejected(Reject::NonFinite), 4);
+        // Integrated over the whole 20 ms, the spike would turn it 2.4 mrad
+        // more.
+        assert!((held - clean).abs() < 1e-4, "{held} against {clean}");
     }
 
     /// An unconfigured estimator counts every sample as not ready.

@@ -84,7 +84,8 @@ fn copy_variances(p: &Covariance) -> (f32, f32) {
 pub struct ImuStep {
     /// Time of the sample.
     pub t: Timestamp,
-    /// Step integrated, s.
+    /// Step integrated with this sample's reading, s (after refused
+    /// readings, the part after the latest of them).
     pub dt: f32,
     /// Bias-corrected angular rate, body frame, rad/s.
     pub gyro: Vec3,
@@ -166,6 +167,10 @@ pub struct EgoEkf {
     /// The latest accepted IMU sample's rates (gyro, specific force), as
     /// measured: the zero-order hold to a camera frame between samples.
     last_imu: Option<(Vec3, Vec3)>,
+    /// The time of the latest reading refused for its values (in order,
+    /// since the last accepted one): the next accepted reading holds
+    /// `last_imu` up to it (see [`EgoEkf::propagate`]).
+    refused_at: Option<Timestamp>,
 }
 
 /// The pose clone's schedule: one clone, shared by the zero-velocity
@@ -283,6 +288,7 @@ impl EgoEkf {
             clone,
             camera,
             last_imu,
+            refused_at,
         } = self;
         *x = Self::nominal(&config);
         p.fill_with_identity();
@@ -309,6 +315,7 @@ impl EgoEkf {
         *clone = CloneUse::Still;
         *camera = CameraFusion::new();
         *last_imu = None;
+        *refused_at = None;
         *c = config;
         Ok(())
     }
@@ -380,6 +387,7 @@ impl EgoEkf {
             clone: CloneUse::Still,
             camera: CameraFusion::new(),
             last_imu: None,
+            refused_at: None,
             config,
         }
     }
@@ -427,6 +435,7 @@ impl EgoEkf {
         clone_pose(&mut self.x, &mut self.p);
         self.clone = CloneUse::Still;
         self.last_imu = None;
+        self.refused_at = None;
         self.refutation.clear();
         self.distrust.clear();
         self.imu_clock.reset();
@@ -451,7 +460,10 @@ impl EgoEkf {
     /// acceleration ([`Reject::OutOfRange`]) and frozen readings
     /// ([`Reject::LowQuality`], see [`crate::plausibility`]) are
     /// rejected with their reason and leave
-    /// the state untouched, except that the sample ending a gap (longer than
+    /// the state untouched; the next accepted sample holds the last
+    /// accepted rates up to the latest refused one (also those the caller
+    /// refused, [`EgoEkf::refused_imu_at`]) and integrates its own reading
+    /// after it. The sample ending a gap (longer than
     /// the configured step) first bridges it: pose moved by the wheels'
     /// dead reckoning over the gap (or, without it, extrapolated at constant
     /// velocity and the last yaw rate), the covariance grown by what was not
@@ -468,17 +480,20 @@ impl EgoEkf {
     }
 
     fn propagate_inner(&mut self, sample: &ImuSample) -> Result<ImuStep, Reject> {
-        sample.check_range(self.config.imu.gyro_max, self.config.imu.accel_max)?;
         let previous = self.imu_clock.last();
         // A time stamp the clock refuses is refused for that reason, not judged.
         let in_order = self.imu_clock.follows(sample.t());
-        if in_order && let Some(cfg) = &self.config.imu.plausibility {
-            // The vertical in the IMU's frame, once the attitude is known.
-            let up = self
-                .initialised
-                .then(|| self.x.q_wb.inverse_transform_vector(&Vec3::z()));
-            self.plausibility.check(cfg, sample, up.as_ref())?;
+        if let Err(reason) = self.judge_values(sample, in_order) {
+            if in_order {
+                self.refused_imu_at(sample.t());
+            }
+            return Err(reason);
         }
+        if let Some(refused) = self.refused_at.filter(|&r| r <= sample.t()) {
+            self.refused_at = None;
+            self.hold_over_refused(previous, refused, sample.t());
+        }
+        let previous = self.imu_clock.last();
         let dt = self.imu_clock.accept(sample.t());
         if in_order {
             self.plausibility.accepted(sample.t(), sample.gyro());
@@ -580,6 +595,53 @@ impl EgoEkf {
             vertical_deviation: libm::fabsf(a_w.z),
             still,
         })
+    }
+
+    /// Tells the filter that the IMU reading taken at `t` was refused before
+    /// it was handed over (not finite, saturated: the caller's entry check,
+    /// [`ImuSample::with_range`], and the caller's count): like a reading
+    /// [`EgoEkf::propagate`] refuses, it told nothing, and the next accepted
+    /// reading holds the last accepted rates up to `t`. A time at or before
+    /// the latest accepted reading's changes nothing.
+    pub fn refused_imu_at(&mut self, t: Timestamp) {
+        if self.imu_clock.follows(t) && self.refused_at.is_none_or(|r| r < t) {
+            self.refused_at = Some(t);
+        }
+    }
+
+    /// The range check and, with `ImuConfig::plausibility` and a time stamp
+    /// in order, the plausibility check of one reading.
+    fn judge_values(&mut self, sample: &ImuSample, in_order: bool) -> Result<(), Reject> {
+        sample.check_range(self.config.imu.gyro_max, self.config.imu.accel_max)?;
+        if in_order && let Some(cfg) = &self.config.imu.plausibility {
+            // The vertical in the IMU's frame, once the attitude is known.
+            let up = self
+                .initialised
+                .then(|| self.x.q_wb.inverse_transform_vector(&Vec3::z()));
+            self.plausibility.check(cfg, sample, up.as_ref())?;
+        }
+        Ok(())
+    }
+
+    /// Before the reading at `t` is integrated: the readings refused since
+    /// the last accepted one (at `previous`), the latest at `refused`, told
+    /// the filter nothing, so the last accepted rates are held up to
+    /// `refused` ([`EgoEkf::propagate_to`]) and the reading at `t` is
+    /// integrated over its own part of the interval only, not over the
+    /// whole of it. Nothing happens when the interval is a gap (bridged
+    /// instead) or `refused` does not lie inside it.
+    fn hold_over_refused(&mut self, previous: Option<Timestamp>, refused: Timestamp, t: Timestamp) {
+        let Some(previous) = previous.filter(|_| self.initialised) else {
+            return;
+        };
+        let inside = refused.nanos_since(previous).is_some_and(|n| n > 0)
+            && t.nanos_since(refused).is_some_and(|n| n > 0);
+        let no_gap = t
+            .nanos_since(previous)
+            .is_some_and(|n| n <= self.imu_clock.max_step_ns());
+        if inside && no_gap {
+            let _ = self.propagate_to(refused);
+        }
     }
 
     /// Clones the pose if the clone is due and `still` (the step about to be

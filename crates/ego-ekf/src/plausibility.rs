@@ -17,8 +17,8 @@
 //!   tells where it lies in the IMU's frame) is held to
 //!   `yaw_step_floor + max_yaw_accel * (t - t_accepted)`, refused as
 //!   [`Reject::OutOfRange`] beyond (a true change is accepted once the
-//!   allowance has grown to it: 45 ms for 1 rad/s from rest, the reading
-//!   that ends the pause integrating over it). A small spike in the yaw rate (a bit
+//!   allowance has grown to it: 45 ms for 1 rad/s from rest, the last
+//!   accepted rate held over the pause). A small spike in the yaw rate (a bit
 //!   error in a low bit, a glitch that multiplies a rate near zero) stays
 //!   within the whole rate's allowance and would otherwise turn the heading
 //!   unseen: 0.5 rad/s for 16 ms is half a degree.
@@ -34,9 +34,12 @@
 //!   [`ImuPlausibility::FIELD`] turns it on for a real IMU (`host-sim`'s
 //!   replay of simulated and recorded logs and the firmware do).
 //!
-//! A refused reading leaves the state untouched; the next accepted one
-//! integrates over the whole interval, or, after more than the IMU's
-//! largest step, ends a gap that the wheels bridge. The defaults refuse no
+//! A refused reading leaves the state untouched. The next accepted one
+//! integrates over its own part of the interval, the last accepted rates
+//! held over the refused part (the refused readings told nothing; a spike
+//! that ends a refused run and is within the grown allowance turns the
+//! heading for one step, not for the whole run), or, after more than the
+//! IMU's largest step, ends a gap that the wheels bridge. The defaults refuse no
 //! reading of the BorealTC excerpts in `data/real/borealtc` (largest rate
 //! change between two of their 100 Hz readings 0.30 rad/s, against an
 //! allowance of 1.0 rad/s, and 0.12 rad/s about their IMU's z axis, the

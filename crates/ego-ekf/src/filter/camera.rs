@@ -100,7 +100,7 @@ impl EgoEkf {
     /// the still detector, the floor's schedule and the IMU counts do not
     /// (no sample was taken). `false` (nothing changed) before any IMU
     /// sample was accepted.
-    fn propagate_to(&mut self, t: Timestamp) -> bool {
+    pub(super) fn propagate_to(&mut self, t: Timestamp) -> bool {
         let Some((gyro, accel)) = self.last_imu else {
             return false;
         };
