@@ -515,13 +515,22 @@ impl<
     /// sample (a bus error, a parity or product-id check, a counter jump):
     /// the driver's error, turned into its reason, lands in the stream's
     /// tally like a rejected sample, so the counts hold every read. The
-    /// filter's state is not touched; a failed wheel read breaks the count
-    /// stream, so no odometry step spans `t`
+    /// filter's state is not touched. A wheel read missed on the bus or
+    /// refused by its integrity check ([`Reject::Bus`],
+    /// [`Reject::Integrity`]) never reached the counter extension: the
+    /// counts continue across it, and the odometry step that spans it is
+    /// kept when it continues the previous one
+    /// ([`DiffDriveOdometry::read_missed`]). Any other failed wheel read (a
+    /// counter jump the extension refused, [`Reject::OutOfRange`]) breaks
+    /// the count stream, so no odometry step spans `t`
     /// ([`DiffDriveOdometry::read_failed`]).
     pub fn reject_read(&mut self, stream: Stream, t: Timestamp, reason: Reject) {
         self.counts[stream].rejected_one(reason);
         if stream == Stream::Wheel {
-            self.odometry.read_failed(t);
+            match reason {
+                Reject::Bus | Reject::Integrity => self.odometry.read_missed(t),
+                _ => self.odometry.read_failed(t),
+            }
         }
     }
 

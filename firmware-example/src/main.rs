@@ -88,7 +88,9 @@ fn main() -> ! {
             if step.is_multiple_of(5) {
                 match read_wheels(t) {
                     Ok(ticks) => est.offer_wheel(ticks),
-                    // Counted with its reason; no odometry step spans it.
+                    // Counted with its reason; the odometry steps across a
+                    // missed read (bus, integrity) only when the counts
+                    // continue, never across a refused counter jump.
                     Err(reason) => est.reject_read(Stream::Wheel, t, reason),
                 }
             }

@@ -240,9 +240,12 @@ impl<L: CumulativeEncoder, R: CumulativeEncoder> WheelEncoderSource for WheelPai
     /// counter extension follows its wheel read by read whatever the other
     /// does (a wheel left unread for a while would see its accumulated
     /// motion refused as a jump). A failure of either is the pair's failure,
-    /// the left's reported first; the counts may not continue across it, and
-    /// the odometry anchors afresh after it
-    /// (`DiffDriveOdometry::read_failed`).
+    /// the left's reported first. After a refused jump
+    /// ([`EncoderError::Counter`]) the counts do not continue, and the
+    /// odometry anchors afresh (`DiffDriveOdometry::read_failed`); a source
+    /// error ([`EncoderError::Source`]: bus, parity, error flag) left the
+    /// extension untouched, and the counts continue across it
+    /// (`DiffDriveOdometry::read_missed`).
     fn read_ticks(&mut self, t: Timestamp) -> Result<WheelTicks, Self::Error> {
         let left = self.left.read_count();
         let right = self.right.read_count();

@@ -13,7 +13,9 @@
 //!   `vslam-core`'s `WheelEncoderSource`;
 //! - [`arc`] and [`odometry`]: exact arc integration of a differential drive,
 //!   wheel rates and body velocity, time validated and outcomes counted; no
-//!   step spans a failed encoder read ([`read_breaks`]).
+//!   step spans a failed encoder read that may break the counts
+//!   ([`read_breaks`]), and a step across missed reads is kept only when it
+//!   continues the previous one.
 //!
 //! # Example: one AS5047P angle read over SPI
 //!

@@ -27,7 +27,12 @@
 //! A failed encoder read ([`DiffDriveOdometry::read_failed`]) may leave the
 //! counts discontinuous (a counter extension that refused a jump holds its
 //! position), so no step spans it: the first sample after it anchors the
-//! stream afresh, like the first sample ([`crate::read_breaks`]).
+//! stream afresh, like the first sample ([`crate::read_breaks`]). A missed
+//! read ([`DiffDriveOdometry::read_missed`]: a bus error, a parity or
+//! error-flag answer, which the counter extension never saw) leaves them
+//! continuous: the step across it is kept when its motion continues the
+//! previous step's (no alias), so a wheel's motion across a few missed
+//! reads is not lost.
 
 use crate::arc::integrate_arc;
 use crate::read_breaks::ReadBreaks;
@@ -209,6 +214,11 @@ pub struct OdometryStep {
     pub velocity: BodyVelocity,
 }
 
+/// How far, in wheel revolutions, a step spanning missed reads may turn a
+/// wheel beyond what its previous rate predicts
+/// ([`DiffDriveOdometry::read_missed`]).
+pub const MISSED_READ_TOLERANCE_REV: f32 = 0.25;
+
 /// Differential-drive odometry: validates, integrates and counts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffDriveOdometry {
@@ -216,7 +226,11 @@ pub struct DiffDriveOdometry {
     clock: SampleClock,
     last: Option<WheelTicks>,
     last_rates: Option<RawWheelRates>,
+    /// The wheel rates (left, right), rad/s, of the latest step of counts.
+    last_step_rates: Option<(f32, f32)>,
     breaks: ReadBreaks,
+    /// Missed reads: the counts continue across them.
+    misses: ReadBreaks,
     counts: SampleCounts,
 }
 
@@ -228,7 +242,9 @@ impl DiffDriveOdometry {
             clock: SampleClock::new(params.max_step_ns),
             last: None,
             last_rates: None,
+            last_step_rates: None,
             breaks: ReadBreaks::new(),
+            misses: ReadBreaks::new(),
             counts: SampleCounts::new(),
         }
     }
@@ -253,7 +269,9 @@ impl DiffDriveOdometry {
         self.clock.reset();
         self.last = None;
         self.last_rates = None;
+        self.last_step_rates = None;
         self.breaks.clear();
+        self.misses.clear();
     }
 
     /// An encoder read at `t` failed (the caller counts it): no step of
@@ -261,6 +279,35 @@ impl DiffDriveOdometry {
     /// docs). Wheel rates are not cumulative and do not need it.
     pub fn read_failed(&mut self, t: Timestamp) {
         self.breaks.mark(t);
+    }
+
+    /// An encoder read at `t` was missed (the caller counts it): the bus
+    /// failed or the answer did not pass its integrity check, so the
+    /// counter extension did not see it and the counts continue across it.
+    /// The step that spans it is kept when its motion continues the
+    /// previous step's: each wheel within a quarter revolution
+    /// ([`MISSED_READ_TOLERANCE_REV`]) of what its previous rate
+    /// predicts over the step. A counter whose range is at least one
+    /// revolution (a wheel-shaft angle sensor such as the AS5047P, a wider
+    /// timer) that aliased across the missed reads is off by a whole
+    /// revolution; a true change of speed that large over a step of a few
+    /// missed reads (0.7 m/s in 80 ms on a 35 mm wheel) is not a ground
+    /// robot's. Otherwise, or without a previous step, the sample anchors
+    /// afresh as after [`DiffDriveOdometry::read_failed`].
+    pub fn read_missed(&mut self, t: Timestamp) {
+        self.misses.mark(t);
+    }
+
+    /// Whether a step of `left_rad`, `right_rad` over `dt` seconds
+    /// continues the previous step's rates (see
+    /// [`DiffDriveOdometry::read_missed`]).
+    fn continues(&self, left_rad: f32, right_rad: f32, dt: f32) -> bool {
+        let Some((left, right)) = self.last_step_rates else {
+            return false;
+        };
+        let tolerance = MISSED_READ_TOLERANCE_REV * core::f32::consts::TAU;
+        libm::fabsf(left_rad - left * dt) < tolerance
+            && libm::fabsf(right_rad - right * dt) < tolerance
     }
 
     /// Takes one sample: `Ok(None)` for the first (anchor), `Ok(Some(step))`
@@ -278,21 +325,19 @@ impl DiffDriveOdometry {
             (Ok(Some(dt)), Some(last)) => (dt, last),
             (Ok(_), _) => {
                 // The first sample (or a clock without anchor ticks): anchor.
-                self.clock = clock;
-                self.last = Some(ticks);
+                self.anchor(clock, ticks);
                 return Ok(None);
             }
             (Err(Reject::Gap), _) => {
-                self.clock = clock;
-                self.last = Some(ticks);
+                self.anchor(clock, ticks);
                 return Err(Reject::Gap);
             }
             (Err(reason), _) => return Err(reason),
         };
+        let missed = self.misses.take(last.t, ticks.t);
         if self.breaks.take(last.t, ticks.t) {
             // The counts may not continue across a failed read: anchor afresh.
-            self.clock = clock;
-            self.last = Some(ticks);
+            self.anchor(clock, ticks);
             return Ok(None);
         }
         let dl = ticks
@@ -312,11 +357,26 @@ impl DiffDriveOdometry {
         {
             return Err(Reject::OutOfRange);
         }
+        if missed && !self.continues(left_rad, right_rad, dt) {
+            // Across missed reads, a motion the previous step does not
+            // explain may be an alias: anchor afresh.
+            self.anchor(clock, ticks);
+            return Ok(None);
+        }
         let rates = WheelRates::new(ticks.t, left_rad / dt, right_rad / dt)?;
         let step = self.integrate(last.t, dt, left_rad, right_rad, rates)?;
         self.clock = clock;
         self.last = Some(ticks);
+        self.last_step_rates = Some((rates.left(), rates.right()));
         Ok(Some(step))
+    }
+
+    /// Anchors the counts on `ticks` (the clock `clock` has accepted it): no
+    /// step ends there, and no previous step's rates are kept.
+    fn anchor(&mut self, clock: SampleClock, ticks: WheelTicks) {
+        self.clock = clock;
+        self.last = Some(ticks);
+        self.last_step_rates = None;
     }
 
     /// Takes one sample of wheel angular rates (the robot reports rates, not

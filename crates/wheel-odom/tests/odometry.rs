@@ -165,6 +165,42 @@ fn no_step_spans_a_failed_read() {
 }
 
 #[test]
+fn a_step_spans_missed_reads_when_it_continues_the_last_one() {
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    o.update(ticks(20, 50, 40)).unwrap().unwrap();
+    // The reads at 40, 60 and 80 ms were missed (bus, parity): the counts
+    // continue, and the step from 20 ms carries their motion, the wheels
+    // speeding up a little.
+    for ms in [40, 60, 80] {
+        o.read_missed(Timestamp(ms * MS));
+    }
+    let s = o.update(ticks(100, 260, 210)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(20 * MS));
+    let rad = |n: f32| n / TPR as f32 * TAU;
+    assert!(close(s.rates.left(), rad(210.0) / 0.08, 1e-3));
+    assert!(close(s.rates.right(), rad(170.0) / 0.08, 1e-3));
+    // An alias: across missed reads the left counts a whole revolution
+    // more than its rate allows (a counter of one revolution's range that
+    // wrapped). The sample anchors afresh, and the next is a step again.
+    for ms in (120..400).step_by(20) {
+        o.read_missed(Timestamp(ms * MS));
+    }
+    // (1.3 m/s over the 300 ms: within the wheels' largest speed.)
+    let alias = 260 + 787 + TPR as i64;
+    assert_eq!(o.update(ticks(400, alias, 847)), Ok(None));
+    let s = o.update(ticks(420, alias + 53, 900)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(400 * MS));
+    // Without a step before it (the first after an anchor), a step across
+    // a missed read cannot be checked: it anchors too.
+    o.read_failed(Timestamp(430 * MS));
+    assert_eq!(o.update(ticks(440, alias + 106, 953)), Ok(None));
+    o.read_missed(Timestamp(450 * MS));
+    assert_eq!(o.update(ticks(460, alias + 159, 1006)), Ok(None));
+    assert!(o.update(ticks(480, alias + 212, 1059)).unwrap().is_some());
+}
+
+#[test]
 fn parameters_are_checked() {
     assert_eq!(
         DiffDriveParams::new(0, R, R, BASE, 1.0, MS),
