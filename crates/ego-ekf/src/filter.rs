@@ -602,9 +602,15 @@ impl EgoEkf {
     /// [`ImuSample::with_range`], and the caller's count): like a reading
     /// [`EgoEkf::propagate`] refuses, it told nothing, and the next accepted
     /// reading holds the last accepted rates up to `t`. A time at or before
-    /// the latest accepted reading's changes nothing.
+    /// the latest accepted reading's, or more than the IMU's longest step
+    /// after it (a time stamp in error, or a gap that is bridged anyway),
+    /// changes nothing.
     pub fn refused_imu_at(&mut self, t: Timestamp) {
-        if self.imu_clock.follows(t) && self.refused_at.is_none_or(|r| r < t) {
+        let near = self.imu_clock.last().is_none_or(|last| {
+            t.nanos_since(last)
+                .is_some_and(|d| d > 0 && d <= self.imu_clock.max_step_ns())
+        });
+        if near && self.refused_at.is_none_or(|r| r < t) {
             self.refused_at = Some(t);
         }
     }

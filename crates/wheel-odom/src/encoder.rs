@@ -21,6 +21,14 @@ pub trait CumulativeEncoder {
     type Error;
     /// The cumulative count now.
     fn read_count(&mut self) -> Result<i64, Self::Error>;
+    /// Whether the count continues across a read that failed with `error`
+    /// (it never reached the count: a bus error, a failed integrity check),
+    /// rather than breaking (a refused jump held the count). `false` unless
+    /// the encoder knows.
+    fn count_continues(error: &Self::Error) -> bool {
+        let _ = error;
+        false
+    }
 }
 
 /// A wrapping hardware counter (a timer in encoder mode), as the HAL reads it.
@@ -106,6 +114,10 @@ impl<C: RawCounter> CumulativeEncoder for CounterEncoder<C> {
         let raw = self.counter.read_raw().map_err(EncoderError::Source)?;
         let position = self.extender.update(raw).map_err(EncoderError::Counter)?;
         Ok(self.polarity.apply(position))
+    }
+    /// A source error left the extension untouched.
+    fn count_continues(error: &Self::Error) -> bool {
+        matches!(error, EncoderError::Source(_))
     }
 }
 
@@ -196,6 +208,11 @@ impl<SPI: SpiDevice> CumulativeEncoder for As5047pEncoder<SPI> {
             .map_err(EncoderError::Counter)?;
         Ok(self.polarity.apply(position))
     }
+    /// A bus error, a parity or error-flag answer or a CORDIC overflow left
+    /// the unwrapping untouched.
+    fn count_continues(error: &Self::Error) -> bool {
+        matches!(error, EncoderError::Source(_))
+    }
 }
 
 /// Which wheel a pair's read failed on.
@@ -240,19 +257,21 @@ impl<L: CumulativeEncoder, R: CumulativeEncoder> WheelEncoderSource for WheelPai
     /// counter extension follows its wheel read by read whatever the other
     /// does (a wheel left unread for a while would see its accumulated
     /// motion refused as a jump). A failure of either is the pair's failure,
-    /// the left's reported first. After a refused jump
+    /// the left's reported first unless only the right's breaks the count
+    /// ([`CumulativeEncoder::count_continues`]). After a refused jump
     /// ([`EncoderError::Counter`]) the counts do not continue, and the
     /// odometry anchors afresh (`DiffDriveOdometry::read_failed`); a source
     /// error ([`EncoderError::Source`]: bus, parity, error flag) left the
     /// extension untouched, and the counts continue across it
     /// (`DiffDriveOdometry::read_missed`).
     fn read_ticks(&mut self, t: Timestamp) -> Result<WheelTicks, Self::Error> {
-        let left = self.left.read_count();
-        let right = self.right.read_count();
-        Ok(WheelTicks {
-            t,
-            left: left.map_err(PairError::Left)?,
-            right: right.map_err(PairError::Right)?,
-        })
+        match (self.left.read_count(), self.right.read_count()) {
+            (Ok(left), Ok(right)) => Ok(WheelTicks { t, left, right }),
+            (Err(l), Err(r)) if L::count_continues(&l) && !R::count_continues(&r) => {
+                Err(PairError::Right(r))
+            }
+            (Err(l), _) => Err(PairError::Left(l)),
+            (Ok(_), Err(r)) => Err(PairError::Right(r)),
+        }
     }
 }

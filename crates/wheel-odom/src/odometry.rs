@@ -334,7 +334,10 @@ impl DiffDriveOdometry {
             }
             (Err(reason), _) => return Err(reason),
         };
-        let missed = self.misses.take(last.t, ticks.t);
+        // Missed reads are consumed only when the anchor moves: a step
+        // refused below is tried again from the same anchor, still across
+        // them.
+        let missed = self.misses.spans(last.t, ticks.t);
         if self.breaks.take(last.t, ticks.t) {
             // The counts may not continue across a failed read: anchor afresh.
             self.anchor(clock, ticks);
@@ -365,6 +368,7 @@ impl DiffDriveOdometry {
         }
         let rates = WheelRates::new(ticks.t, left_rad / dt, right_rad / dt)?;
         let step = self.integrate(last.t, dt, left_rad, right_rad, rates)?;
+        self.consume_misses(ticks.t);
         self.clock = clock;
         self.last = Some(ticks);
         self.last_step_rates = Some((rates.left(), rates.right()));
@@ -372,11 +376,19 @@ impl DiffDriveOdometry {
     }
 
     /// Anchors the counts on `ticks` (the clock `clock` has accepted it): no
-    /// step ends there, and no previous step's rates are kept.
+    /// step ends there, no previous step's rates are kept, and the missed
+    /// reads before it are behind the anchor.
     fn anchor(&mut self, clock: SampleClock, ticks: WheelTicks) {
+        self.consume_misses(ticks.t);
         self.clock = clock;
         self.last = Some(ticks);
         self.last_step_rates = None;
+    }
+
+    /// Forgets the missed reads before `t`, where the anchor moves.
+    fn consume_misses(&mut self, t: Timestamp) {
+        let from = self.last.map_or(Timestamp(0), |l| l.t);
+        let _ = self.misses.take(from, t);
     }
 
     /// Takes one sample of wheel angular rates (the robot reports rates, not

@@ -1,4 +1,6 @@
-//! Failed encoder reads as breaks in the count stream.
+//! Failed encoder reads as breaks in the count stream (and, in a second
+//! instance, missed reads, across which the odometry checks its step
+//! instead of anchoring afresh: `DiffDriveOdometry::read_missed`).
 //!
 //! A read that failed may leave the cumulative counts discontinuous: a
 //! counter extension that refused a jump (an aliased angle, a wheel that
@@ -50,6 +52,13 @@ impl ReadBreaks {
         let spans = inside(first) || inside(last);
         self.pending = if last < to { None } else { Some((last, last)) };
         spans
+    }
+
+    /// Whether a break lies in `(from, to)`, consuming nothing: for a step
+    /// that may still be refused and tried again from the same anchor.
+    pub fn spans(&self, from: Timestamp, to: Timestamp) -> bool {
+        self.pending
+            .is_some_and(|(first, last)| [first, last].iter().any(|&t| t > from && t < to))
     }
 
     /// Whether any break is pending.

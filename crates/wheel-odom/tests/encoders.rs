@@ -107,6 +107,43 @@ fn as5047p_parity_error_reaches_the_pair() {
     right_bus.done();
 }
 
+#[test]
+fn a_pair_reports_the_failure_that_breaks_the_count() {
+    // The left's answer fails its parity check (its count continues: the
+    // unwrapping never saw it) while the right's extension refuses a jump
+    // (its count is held): the pair reports the right's, so that the
+    // odometry anchors afresh instead of stepping across.
+    let mut left_bus = angles(&[0])
+        .read(READ_ANGLECOM, 0x0001)
+        .read(READ_ANGLECOM, parity(200))
+        .mock();
+    let mut right_bus = angles(&[0, 5_000, 5_100]).mock();
+    let left = As5047pEncoder::new(As5047p::new(left_bus.clone()), Polarity::Normal, None).unwrap();
+    let right = As5047pEncoder::new(
+        As5047p::new(right_bus.clone()),
+        Polarity::Normal,
+        Some(1_000),
+    )
+    .unwrap();
+    let mut pair = WheelPair::new(left, right);
+    pair.read_ticks(Timestamp(0)).unwrap();
+    let e = pair.read_ticks(Timestamp(1)).unwrap_err();
+    assert_eq!(
+        e,
+        PairError::Right(EncoderError::Counter(CounterError::Jump { delta: 5_000 }))
+    );
+    assert_eq!(
+        pair.read_ticks(Timestamp(2)),
+        Ok(WheelTicks {
+            t: Timestamp(2),
+            left: 200,
+            right: 100
+        })
+    );
+    left_bus.done();
+    right_bus.done();
+}
+
 /// A timer register fed from a list.
 struct FakeTimer(VecDeque<Result<u32, &'static str>>);
 

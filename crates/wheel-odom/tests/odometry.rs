@@ -201,6 +201,27 @@ fn a_step_spans_missed_reads_when_it_continues_the_last_one() {
 }
 
 #[test]
+fn an_alias_refused_as_too_fast_is_still_checked_later() {
+    // Across missed reads the left wheel is a revolution ahead: the first
+    // samples after them are refused as too fast, which keeps the anchor;
+    // the first that is not still spans the missed reads and is checked.
+    let mut o = odo();
+    o.update(ticks(0, 0, 0)).unwrap();
+    o.update(ticks(20, 50, 40)).unwrap().unwrap();
+    for ms in [40, 60, 80] {
+        o.read_missed(Timestamp(ms * MS));
+    }
+    for (k, ms) in [100, 120, 140, 160].into_iter().enumerate() {
+        let n = k as i64 + 4;
+        let t = ticks(ms, 50 + n * 50 + TPR as i64, 40 + n * 40);
+        assert_eq!(o.update(t), Err(Reject::OutOfRange), "{ms} ms");
+    }
+    assert_eq!(o.update(ticks(180, 1450, 360)), Ok(None));
+    let s = o.update(ticks(200, 1500, 400)).unwrap().unwrap();
+    assert_eq!(s.delta.t0, Timestamp(180 * MS));
+}
+
+#[test]
 fn parameters_are_checked() {
     assert_eq!(
         DiffDriveParams::new(0, R, R, BASE, 1.0, MS),

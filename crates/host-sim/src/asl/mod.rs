@@ -15,11 +15,14 @@
 //! | `imu0`, `wheel0`, `flow0`: `failed.csv` (optional, beside `data.csv`) | `#timestamp [ns],reason`: reads that failed before they produced a sample (`bus`, `integrity`, any [`Reject`] name), as the driver reported them |
 //!
 //! Any sensor folder may be absent; [`Dataset::missing`] names what is.
-//! A failed read leaves no row in `data.csv`, and a wheel read that failed
-//! breaks the count stream: the next row's counts are anchored afresh, not
-//! a step from the row before the failure. `failed.csv` keeps those reads,
-//! so that a replay counts them and breaks the odometry where the recording
-//! robot did ([`Dataset::failed`]).
+//! A failed read leaves no row in `data.csv`. A wheel read whose counter
+//! extension refused a jump (`out_of_range`) breaks the count stream: the
+//! next row's counts are anchored afresh, not a step from the row before
+//! the failure; across a missed one (`bus`, `integrity`) the counts
+//! continue, and the next row is a step across it when it continues the
+//! previous one. `failed.csv` keeps those reads, so that a replay counts
+//! them and hands them to the odometry as the recording robot did
+//! ([`Dataset::failed`]).
 //!
 //! Syntax errors (a wrong column count, text that is not a number, a
 //! missing file) are errors naming the file and line. Sample values that

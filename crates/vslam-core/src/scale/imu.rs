@@ -6,8 +6,10 @@
 //! acceleration tolerance must absorb (1.5 m/s^2 is about 9 degrees).
 //!
 //! Each sample's rate holds over the interval since the previous sample
-//! (zero-order hold backwards, as the EKF integrates); straddling samples are
-//! split in time.
+//! (zero-order hold backwards, as the EKF integrates between accepted
+//! readings; over readings it refused, the EKF holds the last accepted rate
+//! instead, and the two differ by the refused readings' few milliseconds);
+//! straddling samples are split in time.
 
 use heapless::Deque;
 
