@@ -64,6 +64,8 @@
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod avx2;
 mod columns;
 mod config;
 mod gain;

@@ -295,10 +295,46 @@ impl<'r> Template<'r> {
         clamp: bool,
         with_abs: bool,
     ) -> Option<columns::Sums> {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if self.isa.avx2()
+            && let Some(sums) = self.avx2_sums(image, c, clamp, with_abs)
+        {
+            return Some(sums);
+        }
         if with_abs {
             self.sweep(image, c, clamp, &Plain::<true>)
         } else {
             self.sweep(image, c, clamp, &Plain::<false>)
+        }
+    }
+
+    /// [`Template::row_sums`] by the AVX2 sweep (`avx2`) for a window inside
+    /// the image; `None` for the others.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    pub(super) fn avx2_sums(
+        &self,
+        image: &ImageView<'_>,
+        c: Vec2,
+        clamp: bool,
+        with_abs: bool,
+    ) -> Option<columns::Sums> {
+        use super::avx2::plain_sweep;
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let clamp = clamp && inside(image, c);
+        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        let rows = src.inside_rows(image)?;
+        let tpl = [&*self.t, &*self.gx, &*self.gy].map(|rows| rows.get(..n).unwrap_or(&[]));
+        let (isa, w, m) = (self.isa, [src.ax, src.ay], &self.mask);
+        match (window::chunks(n), with_abs) {
+            (1, false) => plain_sweep::<1, false>(isa, rows, w, tpl, m),
+            (1, true) => plain_sweep::<1, true>(isa, rows, w, tpl, m),
+            (2, false) => plain_sweep::<2, false>(isa, rows, w, tpl, m),
+            (2, true) => plain_sweep::<2, true>(isa, rows, w, tpl, m),
+            (3, false) => plain_sweep::<3, false>(isa, rows, w, tpl, m),
+            (3, true) => plain_sweep::<3, true>(isa, rows, w, tpl, m),
+            (_, false) => plain_sweep::<4, false>(isa, rows, w, tpl, m),
+            (_, true) => plain_sweep::<4, true>(isa, rows, w, tpl, m),
         }
     }
 
