@@ -145,7 +145,7 @@ impl<'r> Template<'r> {
         let by_columns = if self.column_order {
             self.sample_by_columns(image, &src)
         } else {
-            None
+            self.sample_by_avx2(image, &src)
         };
         // (patch chunks, window chunks) for n = 3..=31, odd.
         let [gxx, gxy, gyy] = match by_columns {
@@ -190,6 +190,36 @@ impl<'r> Template<'r> {
             _ => false,
         };
         done.then_some(sums)
+    }
+
+    /// The template and the lane sums of `G` by the AVX2 fill (`avx2`), the
+    /// same bits as [`Template::sample`]: for a window inside the image on
+    /// a CPU with AVX2, `None` for the others.
+    fn sample_by_avx2(&mut self, image: &ImageView<'_>, src: &SourceRows) -> Option<columns::Sums> {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            use super::avx2::fill;
+            let rows = src.inside_rows(image)?;
+            let n = self.n;
+            let (isa, w, patch, mask) = (self.isa, [src.ax, src.ay], &mut self.patch, &self.mask);
+            let out = [&mut *self.t, &mut *self.gx, &mut *self.gy]
+                .map(|rows| rows.get_mut(..n).unwrap_or(&mut []));
+            match (window::chunks(n + 2), window::chunks(n)) {
+                (1, _) => fill::<1, 1>(isa, rows, w, patch, out, mask),
+                (2, 1) => fill::<2, 1>(isa, rows, w, patch, out, mask),
+                (2, _) => fill::<2, 2>(isa, rows, w, patch, out, mask),
+                (3, 2) => fill::<3, 2>(isa, rows, w, patch, out, mask),
+                (3, _) => fill::<3, 3>(isa, rows, w, patch, out, mask),
+                (4, 3) => fill::<4, 3>(isa, rows, w, patch, out, mask),
+                (4, _) => fill::<4, 4>(isa, rows, w, patch, out, mask),
+                _ => fill::<MAX_CHUNKS, 4>(isa, rows, w, patch, out, mask),
+            }
+        }
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        {
+            let _ = (image, src);
+            None
+        }
     }
 
     /// Samples the `n + 2` square patch (`P` chunks wide) row by row into
