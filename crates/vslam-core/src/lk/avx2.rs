@@ -19,50 +19,104 @@ use core::arch::x86_64::{
     _mm256_setr_epi32, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps,
 };
 
+use crate::image::ImageView;
+
 use super::isa::Isa;
 use super::template::{TPL, TplRow};
-use super::window::{LANES, ROW, Row};
+use super::window::{LANES, ROW, Row, SRC, SourceRows};
 
-/// The lane sums `[sum d gx, sum d gy, sum |d| m]` (`d = T - J`) of a window
-/// of `C` chunks whose `t.len() + 1` source rows start at `data[start..]`,
-/// `stride` apart, with the fractions `[ax, ay]`; `None` when `isa` is not
-/// AVX2 or the rows do not lie in `data` (the caller's portable sweep then
-/// runs).
+/// Where the source rows of a window are: the pointer to row `i`'s first
+/// byte, with at least `need` bytes readable there until the next call.
+trait Source {
+    fn row(&mut self, i: usize) -> *const u8;
+}
+
+/// A window inside the image: row `i` is `i` strides on from the first.
+struct Strided {
+    first: *const u8,
+    stride: usize,
+}
+
+impl Source for Strided {
+    #[inline(always)]
+    fn row(&mut self, i: usize) -> *const u8 {
+        self.first.wrapping_add(i.wrapping_mul(self.stride))
+    }
+}
+
+/// Any window: [`SourceRows::row`] (edge pixels repeated, copied into
+/// `buf` where the row is not borrowed whole).
+struct Clamped<'r, 'i> {
+    image: &'r ImageView<'i>,
+    src: &'r SourceRows,
+    buf: &'r mut [u8; SRC],
+    need: usize,
+}
+
+impl Source for Clamped<'_, '_> {
+    #[inline(always)]
+    fn row(&mut self, i: usize) -> *const u8 {
+        // At least `need` bytes (`need <= SRC`, see `SourceRows::row`).
+        self.src.row(self.image, i, self.need, self.buf).as_ptr()
+    }
+}
+
+/// The [`Strided`] source of `rows` source rows of `need` bytes each that
+/// `src` reads, when they all lie in the image buffer.
+#[inline(always)]
+fn strided(image: &ImageView<'_>, src: &SourceRows, rows: usize, need: usize) -> Option<Strided> {
+    let (data, start, stride) = src.inside_rows(image)?;
+    let end = stride
+        .checked_mul(rows.checked_sub(1)?)?
+        .checked_add(start)?
+        .checked_add(need)?;
+    let first = data.get(start..end)?.as_ptr();
+    Some(Strided { first, stride })
+}
+
+/// The lane sums `[sum d gx, sum d gy, sum |d| m]` (`d = T - J`, `J` the
+/// window `src` samples from `image`) of a window of `C` chunks and
+/// `t.len()` rows; `None` when `isa` is not AVX2 (the caller's portable
+/// sweep then runs). `buf`: scratch for rows over the border.
 #[inline]
 pub(super) fn plain_sweep<const C: usize, const ABS: bool>(
     isa: Isa,
-    (data, start, stride): (&[u8], usize, usize),
-    weights: [f32; 2],
+    (image, src, buf): (&ImageView<'_>, &SourceRows, &mut [u8; SRC]),
     [t, gx, gy]: [&[TplRow]; 3],
     mask: &TplRow,
 ) -> Option<[[f32; LANES]; 3]> {
     let n = t.len();
-    // Every read below: rows 0..=n, each C LANES + 1 bytes from its start.
-    let end = stride
-        .checked_mul(n)?
-        .checked_add(start)?
-        .checked_add(C * LANES + 1)?;
-    if !isa.avx2() || C * LANES > TPL || gx.len() != n || gy.len() != n || end > data.len() {
+    let need = C * LANES + 1;
+    if !isa.avx2() || C * LANES > TPL || need > SRC || gx.len() != n || gy.len() != n {
         return None;
     }
-    let rows = data.get(start..)?.as_ptr();
-    // SAFETY: AVX2 is present (`Isa::avx2`); the reads stay inside `data`
-    // (checked above: row `i <= n` reads bytes `start + i stride ..
-    // start + i stride + C LANES + 1`) and inside the template rows
-    // (`C LANES <= TPL`, `n` rows each).
-    Some(unsafe { sweep::<C, ABS>(rows, stride, weights, [t, gx, gy], mask) })
+    let (w, tpl) = ([src.ax, src.ay], [t, gx, gy]);
+    // SAFETY: AVX2 is present (`Isa::avx2`); each source gives `need` bytes
+    // per row (`strided` checked that its rows lie in the image buffer;
+    // `SourceRows::row` gives at least `need <= SRC` bytes); the template
+    // reads stay inside its rows (`C LANES <= TPL`, `n` rows each).
+    Some(match strided(image, src, n + 1, need) {
+        Some(rows) => unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) },
+        None => {
+            let rows = Clamped {
+                image,
+                src,
+                buf,
+                need,
+            };
+            unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) }
+        }
+    })
 }
 
 /// [`plain_sweep`] after its checks.
 ///
 /// # Safety
-/// The CPU has AVX2; rows `0..=t.len()` at `rows + i stride` hold
-/// `C LANES + 1` readable bytes each; `C LANES <= TPL`; `gx`, `gy` have
-/// `t.len()` rows.
+/// The CPU has AVX2; `rows` gives `C LANES + 1` readable bytes for rows
+/// `0..=t.len()`; `C LANES <= TPL`; `gx`, `gy` have `t.len()` rows.
 #[target_feature(enable = "avx2")]
-unsafe fn sweep<const C: usize, const ABS: bool>(
-    rows: *const u8,
-    stride: usize,
+unsafe fn sweep<const C: usize, const ABS: bool, S: Source>(
+    mut rows: S,
     [ax, ay]: [f32; 2],
     [t, gx, gy]: [&[TplRow]; 3],
     mask: &TplRow,
@@ -71,7 +125,7 @@ unsafe fn sweep<const C: usize, const ABS: bool>(
     let sign = _mm256_set1_ps(-0.0);
     let mut h0 = [_mm256_setzero_ps(); C];
     // SAFETY (all blocks): the caller's contract, see `plain_sweep`.
-    unsafe { horizontal::<C>(rows, vax, &mut h0) };
+    unsafe { horizontal::<C>(rows.row(0), vax, &mut h0) };
     let mut m = [_mm256_setzero_ps(); C];
     for (k, v) in m.iter_mut().enumerate() {
         *v = unsafe { _mm256_loadu_ps(mask.as_ptr().add(k * LANES)) };
@@ -83,7 +137,7 @@ unsafe fn sweep<const C: usize, const ABS: bool>(
     );
     let mut h1 = [_mm256_setzero_ps(); C];
     for (i, ((t, gx), gy)) in t.iter().zip(gx).zip(gy).enumerate() {
-        unsafe { horizontal::<C>(rows.add((i + 1) * stride), vax, &mut h1) };
+        unsafe { horizontal::<C>(rows.row(i + 1), vax, &mut h1) };
         for (k, ((&a, &b), &m)) in h0.iter().zip(&h1).zip(&m).enumerate() {
             let j = _mm256_add_ps(a, _mm256_mul_ps(vay, _mm256_sub_ps(b, a)));
             let tk = unsafe { _mm256_loadu_ps(t.as_ptr().add(k * LANES)) };
@@ -128,50 +182,53 @@ unsafe fn horizontal<const C: usize>(row: *const u8, vax: __m256, out: &mut [__m
     }
 }
 
-/// The template of a window of `C` chunks (its patch, with the one-pixel
-/// frame, `P` chunks) whose `t.len() + 3` source rows start at
-/// `data[start..]`, `stride` apart: the patch rows through the ring `patch`,
-/// the template rows `t`, `gx`, `gy` as `template::gradient_row` writes them,
-/// and the lane sums `[gx², gx gy, gy²]` of `G`; `None` when `isa` is not
-/// AVX2 or the rows do not lie in `data` (the caller's portable fill then
-/// runs).
+/// The template of a window of `C` chunks and `t.len()` rows that `src`
+/// samples from `image` (its patch, with the one-pixel frame, `P` chunks):
+/// the patch rows through the ring `patch`, the template rows `t`, `gx`,
+/// `gy` as `template::gradient_row` writes them, and the lane sums `[gx²,
+/// gx gy, gy²]` of `G`; `None` when `isa` is not AVX2 (the caller's
+/// portable fill then runs). `buf`: scratch for rows over the border.
 #[inline]
 pub(super) fn fill<const P: usize, const C: usize>(
     isa: Isa,
-    (data, start, stride): (&[u8], usize, usize),
-    weights: [f32; 2],
+    (image, src, buf): (&ImageView<'_>, &SourceRows, &mut [u8; SRC]),
     patch: &mut [Row; 3],
     [t, gx, gy]: [&mut [TplRow]; 3],
     mask: &TplRow,
 ) -> Option<[[f32; LANES]; 3]> {
     let n = t.len();
-    // Every read below: source rows 0..=n+2, each P LANES + 1 bytes from its start.
-    let end = stride
-        .checked_mul(n + 2)?
-        .checked_add(start)?
-        .checked_add(P * LANES + 1)?;
+    let need = P * LANES + 1;
     let fits = P * LANES <= ROW && (C + 1) * LANES <= ROW && C * LANES <= TPL && TPL < ROW;
-    if !isa.avx2() || !fits || gx.len() != n || gy.len() != n || end > data.len() {
+    if !isa.avx2() || !fits || need > SRC || gx.len() != n || gy.len() != n {
         return None;
     }
-    let rows = data.get(start..)?.as_ptr();
-    // SAFETY: AVX2 is present (`Isa::avx2`); the source reads stay inside
-    // `data` (checked above) and the row reads and writes inside the patch
-    // and template rows (`fits`).
-    Some(unsafe { fill_rows::<P, C>(rows, stride, weights, patch, [t, gx, gy], mask) })
+    let (w, tpl) = ([src.ax, src.ay], [t, gx, gy]);
+    // SAFETY: AVX2 is present (`Isa::avx2`); each source gives `need` bytes
+    // per row (see `plain_sweep`); the row reads and writes stay inside the
+    // patch and template rows (`fits`).
+    Some(match strided(image, src, n + 3, need) {
+        Some(rows) => unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) },
+        None => {
+            let rows = Clamped {
+                image,
+                src,
+                buf,
+                need,
+            };
+            unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) }
+        }
+    })
 }
 
 /// [`fill`] after its checks.
 ///
 /// # Safety
-/// The CPU has AVX2; source rows `0..=t.len() + 2` at `rows + i stride`
-/// hold `P LANES + 1` readable bytes each; `P LANES <= ROW`,
-/// `(C + 1) LANES <= ROW`, `C LANES <= TPL < ROW`; `gx`, `gy` have `t.len()`
-/// rows.
+/// The CPU has AVX2; `rows` gives `P LANES + 1` readable bytes for rows
+/// `0..=t.len() + 2`; `P LANES <= ROW`, `(C + 1) LANES <= ROW`,
+/// `C LANES <= TPL < ROW`; `gx`, `gy` have `t.len()` rows.
 #[target_feature(enable = "avx2")]
-unsafe fn fill_rows<const P: usize, const C: usize>(
-    rows: *const u8,
-    stride: usize,
+unsafe fn fill_rows<const P: usize, const C: usize, S: Source>(
+    mut rows: S,
     [ax, ay]: [f32; 2],
     patch: &mut [Row; 3],
     [t, gx, gy]: [&mut [TplRow]; 3],
@@ -192,7 +249,7 @@ unsafe fn fill_rows<const P: usize, const C: usize>(
     let mut h0 = [_mm256_setzero_ps(); P];
     let mut h1 = [_mm256_setzero_ps(); P];
     // SAFETY (all blocks): the caller's contract, see `fill`.
-    unsafe { horizontal::<P>(rows, vax, &mut h0) };
+    unsafe { horizontal::<P>(rows.row(0), vax, &mut h0) };
     let n = t.len();
     let mut outputs = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
     // The patch ring's slots, as `Template::sample` takes them: the oldest,
@@ -200,7 +257,7 @@ unsafe fn fill_rows<const P: usize, const C: usize>(
     let [r0, r1, r2] = patch;
     let (mut a, mut b, mut c) = (r0.as_mut_ptr(), r1.as_mut_ptr(), r2.as_mut_ptr());
     for i in 0..n + 2 {
-        unsafe { horizontal::<P>(rows.add((i + 1) * stride), vax, &mut h1) };
+        unsafe { horizontal::<P>(rows.row(i + 1), vax, &mut h1) };
         // The new patch row goes where the oldest was.
         for (k, (&top, &bottom)) in h0.iter().zip(&h1).enumerate() {
             let v = _mm256_add_ps(top, _mm256_mul_ps(vay, _mm256_sub_ps(bottom, top)));
@@ -333,8 +390,7 @@ mod tests {
 
     /// The AVX2 sweep gives the portable row kernels' lane sums bit for bit
     /// for every window size, with and without the absolute sums, at every
-    /// subpixel phase, and stands aside (the portable sweep runs) for
-    /// windows over the border.
+    /// subpixel phase, inside the image and over its border.
     #[test]
     fn the_avx2_sweep_gives_the_portable_sums_bit_for_bit() {
         let (a, b) = (image(1), image(2));
@@ -343,7 +399,7 @@ mod tests {
             ImageView::packed(&b, W, H).unwrap(),
         );
         let avx2 = Isa::detect().avx2();
-        let (mut compared, mut by_avx2) = (0, 0);
+        let (mut compared, mut by_avx2, mut over_border) = (0, 0, 0);
         for n in (3..=31).step_by(2) {
             let mut rows = TemplateRows::<31>::zeroed();
             let mut tpl = Template::empty(&mut rows);
@@ -367,29 +423,32 @@ mod tests {
                         compared += usize::from(portable.is_some());
                         by_avx2 +=
                             usize::from(avx2 && tpl.avx2_sums(&vb, at, clamp, abs).is_some());
+                        let half = (n / 2) as f32;
+                        let src = SourceRows::new(&vb, at.x - half, at.y - half, n, n, false);
+                        over_border += usize::from(portable.is_some() && src.is_none());
                     }
                 }
             }
         }
         assert!(compared > 3000, "{compared}");
+        assert!(
+            over_border > 500,
+            "{over_border} of {compared} over the border"
+        );
         if avx2 {
-            assert!(
-                by_avx2 > 1000 && by_avx2 < compared,
-                "{by_avx2} of {compared}"
-            );
+            assert_eq!(by_avx2, compared);
         }
     }
 
     /// The AVX2 fill gives the portable template bit for bit in the
     /// window's lanes (intensities, gradients, `G⁻¹`) for every window
-    /// size at every subpixel phase, fails where it fails, and stands aside
-    /// for windows over the border.
+    /// size at every subpixel phase, inside the image and over its border,
+    /// and fails where it fails.
     #[test]
     fn the_avx2_fill_gives_the_portable_template_bit_for_bit() {
         let a = image(3);
         let va = ImageView::packed(&a, W, H).unwrap();
-        let avx2 = Isa::detect().avx2();
-        let (mut compared, mut by_avx2) = (0, 0);
+        let (mut compared, mut over_border) = (0, 0);
         for n in (3..=31).step_by(2) {
             let (mut rows_a, mut rows_b) =
                 (TemplateRows::<31>::zeroed(), TemplateRows::<31>::zeroed());
@@ -433,16 +492,14 @@ mod tests {
                     compared += 1;
                     let half = (n / 2) as f32 + 1.0;
                     let src = SourceRows::new(&va, c.x - half, c.y - half, n + 2, n + 2, false);
-                    by_avx2 += usize::from(avx2 && src.is_some());
+                    over_border += usize::from(src.is_none());
                 }
             }
         }
         assert!(compared > 1000, "{compared}");
-        if avx2 {
-            assert!(
-                by_avx2 > 500 && by_avx2 < compared,
-                "{by_avx2} of {compared}"
-            );
-        }
+        assert!(
+            over_border > 200,
+            "{over_border} of {compared} over the border"
+        );
     }
 }

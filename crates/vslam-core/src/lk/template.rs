@@ -199,20 +199,20 @@ impl<'r> Template<'r> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         {
             use super::avx2::fill;
-            let rows = src.inside_rows(image)?;
             let n = self.n;
-            let (isa, w, patch, mask) = (self.isa, [src.ax, src.ay], &mut self.patch, &self.mask);
+            let (isa, patch, mask) = (self.isa, &mut self.patch, &self.mask);
+            let rows = (image, src, &mut self.src);
             let out = [&mut *self.t, &mut *self.gx, &mut *self.gy]
                 .map(|rows| rows.get_mut(..n).unwrap_or(&mut []));
             match (window::chunks(n + 2), window::chunks(n)) {
-                (1, _) => fill::<1, 1>(isa, rows, w, patch, out, mask),
-                (2, 1) => fill::<2, 1>(isa, rows, w, patch, out, mask),
-                (2, _) => fill::<2, 2>(isa, rows, w, patch, out, mask),
-                (3, 2) => fill::<3, 2>(isa, rows, w, patch, out, mask),
-                (3, _) => fill::<3, 3>(isa, rows, w, patch, out, mask),
-                (4, 3) => fill::<4, 3>(isa, rows, w, patch, out, mask),
-                (4, _) => fill::<4, 4>(isa, rows, w, patch, out, mask),
-                _ => fill::<MAX_CHUNKS, 4>(isa, rows, w, patch, out, mask),
+                (1, _) => fill::<1, 1>(isa, rows, patch, out, mask),
+                (2, 1) => fill::<2, 1>(isa, rows, patch, out, mask),
+                (2, _) => fill::<2, 2>(isa, rows, patch, out, mask),
+                (3, 2) => fill::<3, 2>(isa, rows, patch, out, mask),
+                (3, _) => fill::<3, 3>(isa, rows, patch, out, mask),
+                (4, 3) => fill::<4, 3>(isa, rows, patch, out, mask),
+                (4, _) => fill::<4, 4>(isa, rows, patch, out, mask),
+                _ => fill::<MAX_CHUNKS, 4>(isa, rows, patch, out, mask),
             }
         }
         #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
@@ -338,11 +338,11 @@ impl<'r> Template<'r> {
         }
     }
 
-    /// [`Template::row_sums`] by the AVX2 sweep (`avx2`) for a window inside
-    /// the image; `None` for the others.
+    /// [`Template::row_sums`] by the AVX2 sweep (`avx2`); `None` on a CPU
+    /// without AVX2 and when the window is outside.
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     pub(super) fn avx2_sums(
-        &self,
+        &mut self,
         image: &ImageView<'_>,
         c: Vec2,
         clamp: bool,
@@ -353,18 +353,17 @@ impl<'r> Template<'r> {
         let half = (n / 2) as f32;
         let clamp = clamp && inside(image, c);
         let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
-        let rows = src.inside_rows(image)?;
         let tpl = [&*self.t, &*self.gx, &*self.gy].map(|rows| rows.get(..n).unwrap_or(&[]));
-        let (isa, w, m) = (self.isa, [src.ax, src.ay], &self.mask);
+        let (isa, m, rows) = (self.isa, &self.mask, (image, &src, &mut self.src));
         match (window::chunks(n), with_abs) {
-            (1, false) => plain_sweep::<1, false>(isa, rows, w, tpl, m),
-            (1, true) => plain_sweep::<1, true>(isa, rows, w, tpl, m),
-            (2, false) => plain_sweep::<2, false>(isa, rows, w, tpl, m),
-            (2, true) => plain_sweep::<2, true>(isa, rows, w, tpl, m),
-            (3, false) => plain_sweep::<3, false>(isa, rows, w, tpl, m),
-            (3, true) => plain_sweep::<3, true>(isa, rows, w, tpl, m),
-            (_, false) => plain_sweep::<4, false>(isa, rows, w, tpl, m),
-            (_, true) => plain_sweep::<4, true>(isa, rows, w, tpl, m),
+            (1, false) => plain_sweep::<1, false>(isa, rows, tpl, m),
+            (1, true) => plain_sweep::<1, true>(isa, rows, tpl, m),
+            (2, false) => plain_sweep::<2, false>(isa, rows, tpl, m),
+            (2, true) => plain_sweep::<2, true>(isa, rows, tpl, m),
+            (3, false) => plain_sweep::<3, false>(isa, rows, tpl, m),
+            (3, true) => plain_sweep::<3, true>(isa, rows, tpl, m),
+            (_, false) => plain_sweep::<4, false>(isa, rows, tpl, m),
+            (_, true) => plain_sweep::<4, true>(isa, rows, tpl, m),
         }
     }
 
