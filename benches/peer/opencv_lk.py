@@ -126,6 +126,7 @@ def main():
         return
     ours_t = {n: criterion_median_ns(args.criterion, n) for n in names}
     spread = {}
+    per_round = {}
     if args.rounds:
         # The machine is shared: OpenCV and our bench ran alternately in
         # several rounds; each figure is the median over the rounds.
@@ -144,6 +145,15 @@ def main():
             spread[n] = (min(vals), max(vals)) if vals else None
         spread["opencv_full"] = (min(r["full"] for r in cv_all), max(r["full"] for r in cv_all))
         spread["rounds"] = (len(ours_all), len(cv_all))
+        # Our round k ran between OpenCV's rounds k and k + 1: its ratio to
+        # the mean of those two is the least disturbed by the machine's drift.
+        track = lambda r: r["full"] - r["pyr_d"] - r["pyr"]
+        per_round = {}
+        for n, cv_of in ((names[0], track), (names[1], lambda r: r["full"])):
+            ratios = [o[n] / ((cv_of(a) + cv_of(b)) / 2)
+                      for o, a, b in zip(ours_all, cv_all, cv_all[1:]) if o.get(n) is not None]
+            if ratios:
+                per_round[n] = ratios
     cv_track = cv_full - cv_pyr_d - cv_pyr
 
     rows = [
@@ -172,6 +182,12 @@ def main():
                 lo, hi = spread[n]
                 print(f"; {label} {lo / 1e3:.1f}-{hi / 1e3:.1f} us", end="")
         print()
+        for n, label in zip(names, ("track, pyramids prebuilt", "both pyramids + track")):
+            ratios = per_round.get(n)
+            if ratios:
+                print(f"per round, ours / OpenCV's rounds either side, {label}: median "
+                      f"{statistics.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f} "
+                      f"({' '.join(f'{r:.2f}' for r in ratios)})")
 
     d_cv, ok_cv = errors(nxt.reshape(-1, 2), status.reshape(-1), truth)
     d_us, ok_us = errors(ours[:, :2], ours[:, 2], truth)

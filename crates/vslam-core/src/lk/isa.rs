@@ -2,18 +2,21 @@
 //!
 //! The row kernels (`template`, `gain`) are straight-line loops over eight
 //! `f32` lanes. Compiled for the x86-64 baseline (SSE2) each lane group
-//! takes two 4-wide registers; with AVX2 it takes one 8-wide register: one
-//! tracking call of the `lk` bench's input runs 4.83 M instructions with the
-//! AVX2 copies against 8.07 M with the baseline ones (callgrind, see
-//! `benches/README.md`). With the `std` feature on x86-64, each kernel is
-//! compiled twice ([`twins`]) and [`Isa::detect`] picks the AVX2 copy at
-//! run time when the CPU has it; elsewhere (Cortex-M, no `std`) only the
-//! baseline copy exists.
+//! takes two 4-wide registers; with AVX2 it takes one 8-wide register. With
+//! the `std` feature on x86-64, each kernel is compiled twice ([`twins`])
+//! and [`Isa::detect`] picks the AVX2 copy at run time when the CPU has it;
+//! elsewhere (Cortex-M, no `std`) only the baseline copy exists. On AVX2 the
+//! two hottest loops, the template fill and the constant-brightness sweep,
+//! run hand-written intrinsics instead (`avx2`, a whole window per call).
+//! One tracking call of the `lk` bench's input runs 3.06 M instructions on
+//! AVX2 against 8.07 M with the baseline copies (callgrind, see
+//! `benches/README.md`).
 //!
 //! Both copies give the same bits: they run the same lane-wise `f32`
 //! additions and multiplications in the same order, and Rust never fuses a
 //! multiply and an add into an FMA on its own (AVX2 does not enable FMA).
-//! The tracker's tests compare the two on every window size.
+//! The tracker's tests compare the two on every window size, and `avx2`'s
+//! tests its intrinsics against the baseline copies.
 
 /// The instruction set of the row kernels: the baseline, or AVX2 when the
 /// CPU has it (x86-64 with `std` only).

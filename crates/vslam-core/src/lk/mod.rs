@@ -61,6 +61,9 @@
 //! - `gain`: the gain-bias model's moments, kernel and normalised residual,
 //! - `isa`: the row kernels compiled twice on x86-64 with `std` (baseline
 //!   and AVX2, picked at run time; the same bits),
+//! - `avx2`: on x86-64 with `std` and a CPU with AVX2, the template fill
+//!   and the constant-brightness sweep written with AVX2 intrinsics, a
+//!   whole window per call (the same bits as the row kernels),
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
