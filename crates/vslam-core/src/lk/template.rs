@@ -142,13 +142,15 @@ impl<'r> Template<'r> {
                 *v = if k < n { 1.0 } else { 0.0 };
             }
         }
-        let by_columns = if self.column_order {
+        // Whole windows at once where they serve: the column kernels
+        // (Cortex-M) or the AVX2 fill; else the row kernels below.
+        let whole = if self.column_order {
             self.sample_by_columns(image, &src)
         } else {
             self.sample_by_avx2(image, &src)
         };
         // (patch chunks, window chunks) for n = 3..=31, odd.
-        let [gxx, gxy, gyy] = match by_columns {
+        let [gxx, gxy, gyy] = match whole {
             Some(sums) => sums.map(|lanes| lanes.iter().sum::<f32>()),
             None => match (window::chunks(m), window::chunks(n)) {
                 (1, _) => self.sample::<1, 1>(image, &src),
@@ -193,8 +195,8 @@ impl<'r> Template<'r> {
     }
 
     /// The template and the lane sums of `G` by the AVX2 fill (`avx2`), the
-    /// same bits as [`Template::sample`]: for a window inside the image on
-    /// a CPU with AVX2, `None` for the others.
+    /// same bits as [`Template::sample`]; `None` on a CPU without AVX2 (and
+    /// on every other target).
     fn sample_by_avx2(&mut self, image: &ImageView<'_>, src: &SourceRows) -> Option<columns::Sums> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         {
