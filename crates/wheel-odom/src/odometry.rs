@@ -387,8 +387,7 @@ impl DiffDriveOdometry {
 
     /// Forgets the missed reads before `t`, where the anchor moves.
     fn consume_misses(&mut self, t: Timestamp) {
-        let from = self.last.map_or(Timestamp(0), |l| l.t);
-        let _ = self.misses.take(from, t);
+        self.misses.consume(t);
     }
 
     /// Takes one sample of wheel angular rates (the robot reports rates, not

@@ -50,8 +50,16 @@ impl ReadBreaks {
         };
         let inside = |t: Timestamp| t > from && t < to;
         let spans = inside(first) || inside(last);
-        self.pending = if last < to { None } else { Some((last, last)) };
+        self.consume(to);
         spans
+    }
+
+    /// Consumes the breaks up to `to` (the later one stays pending if it is
+    /// at or after `to`).
+    pub fn consume(&mut self, to: Timestamp) {
+        if let Some((_, last)) = self.pending {
+            self.pending = if last < to { None } else { Some((last, last)) };
+        }
     }
 
     /// Whether a break lies in `(from, to)`, consuming nothing: for a step
