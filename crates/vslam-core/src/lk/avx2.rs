@@ -9,17 +9,19 @@
 //! the row loop and the kernel share a function; here the vectors are written
 //! out, so the rows need no calls. Each lane runs the portable kernels'
 //! operations in their order (`f32` subtraction, multiplication and
-//! addition, no FMA; shifting lanes only moves data), so the results are the
-//! same bits: the tests below compare them for every window size, inside the
-//! image and over its border, and `the_detected_instruction_set_tracks_as_the_baseline`
-//! (`track`) compares whole tracks. Source rows come from the image buffer
-//! ([`Strided`]) or, for a window over a coarse level's border, through
-//! `SourceRows::row` with the edge pixels repeated ([`Clamped`]).
+//! addition, no FMA; shifting lanes only moves data), and the source rows are
+//! read as the portable code reads them ([`Source`]: row 0 through
+//! `SourceRows::row`, the others from the image buffer where they lie in it),
+//! so every lane the portable code writes gets the same bits, down to the
+//! signed zeros of the masked gradient lanes. The tests below compare them
+//! for every window size, inside the image and over its border, packed and
+//! strided, and `the_detected_instruction_set_tracks_as_the_baseline`
+//! (`track`) compares whole tracks.
 //!
 //! Cost on the `lk` bench's input (callgrind, 10 tracking calls of
-//! `examples/lk_profile`): the fill 3,484 instructions per template inside
-//! the image (151 per patch row of a 21x21 window), the sweep 1,207 per pass
-//! (55 per row); over the border 5,522 and 2,866 (the rows are copied).
+//! `examples/lk_profile`): the fill 3,485 instructions per template inside
+//! the image (152 per patch row of a 21x21 window), the sweep 1,209 per pass
+//! (55 per row); over the border 5,586 and 2,945 (the rows are copied).
 
 #![allow(unsafe_code)]
 
@@ -35,53 +37,108 @@ use super::isa::Isa;
 use super::template::{TPL, TplRow};
 use super::window::{LANES, ROW, Row, SRC, SourceRows};
 
-/// Where the source rows of a window are: the pointer to row `i`'s first
-/// byte, with at least `need` bytes readable there until the next call.
+/// Where the source rows of a window are, read as the portable code reads
+/// them (so that even the bytes past the window's last column agree): row
+/// 0 through [`SourceRows::row`], the others straight from the image buffer
+/// when the window is inside and the row lies in it, else through
+/// [`SourceRows::row`]. Each call gives a pointer to at least `need` readable
+/// bytes, valid until the next call.
 trait Source {
+    /// Row 0.
+    fn first(&mut self) -> *const u8;
+    /// Row `i >= 1`.
     fn row(&mut self, i: usize) -> *const u8;
 }
 
-/// A window inside the image: row `i` is `i` strides on from the first.
+/// A window inside the image whose rows `1..rows` all lie in the image
+/// buffer: row `i` is `i` strides on from row 0's place there.
 struct Strided {
-    first: *const u8,
+    /// Row 0 as [`SourceRows::row`] gives it.
+    row0: *const u8,
+    /// Row 0's place in the image buffer.
+    origin: *const u8,
     stride: usize,
 }
 
 impl Source for Strided {
     #[inline(always)]
+    fn first(&mut self) -> *const u8 {
+        self.row0
+    }
+
+    #[inline(always)]
     fn row(&mut self, i: usize) -> *const u8 {
-        self.first.wrapping_add(i.wrapping_mul(self.stride))
+        self.origin.wrapping_add(i.wrapping_mul(self.stride))
     }
 }
 
-/// Any window: [`SourceRows::row`] (edge pixels repeated, copied into
-/// `buf` where the row is not borrowed whole).
+/// Any other window: each row as the portable code reads it (edge pixels
+/// repeated, copied into `buf`, where it does not take the image buffer).
 struct Clamped<'r, 'i> {
     image: &'r ImageView<'i>,
     src: &'r SourceRows,
     buf: &'r mut [u8; SRC],
     need: usize,
+    /// For a window inside the image: the buffer, row 0's index, the stride.
+    inside: Option<(&'i [u8], usize, usize)>,
 }
 
 impl Source for Clamped<'_, '_> {
     #[inline(always)]
-    fn row(&mut self, i: usize) -> *const u8 {
+    fn first(&mut self) -> *const u8 {
         // At least `need` bytes (`need <= SRC`, see `SourceRows::row`).
-        self.src.row(self.image, i, self.need, self.buf).as_ptr()
+        self.src.row(self.image, 0, self.need, self.buf).as_ptr()
+    }
+
+    #[inline(always)]
+    fn row(&mut self, i: usize) -> *const u8 {
+        let borrowed = self.inside.and_then(|(data, start, stride)| {
+            let at = start.checked_add(i.checked_mul(stride)?)?;
+            data.get(at..at.checked_add(self.need)?)
+        });
+        match borrowed {
+            Some(row) => row.as_ptr(),
+            None => self.src.row(self.image, i, self.need, self.buf).as_ptr(),
+        }
     }
 }
 
-/// The [`Strided`] source of `rows` source rows of `need` bytes each that
-/// `src` reads, when they all lie in the image buffer.
+/// The [`Source`] of the `rows` source rows of `need` bytes each (`need <=
+/// SRC`) that `src` reads from `image`: [`Strided`] where it applies, else
+/// [`Clamped`]; `buf` holds the rows that are copied.
 #[inline(always)]
-fn strided(image: &ImageView<'_>, src: &SourceRows, rows: usize, need: usize) -> Option<Strided> {
-    let (data, start, stride) = src.inside_rows(image)?;
-    let end = stride
-        .checked_mul(rows.checked_sub(1)?)?
-        .checked_add(start)?
-        .checked_add(need)?;
-    let first = data.get(start..end)?.as_ptr();
-    Some(Strided { first, stride })
+fn source<'r, 'i>(
+    image: &'r ImageView<'i>,
+    src: &'r SourceRows,
+    buf: &'r mut [u8; SRC],
+    rows: usize,
+    need: usize,
+) -> Result<Strided, Clamped<'r, 'i>> {
+    let inside = src.inside_rows(image);
+    let block = inside.and_then(|(data, start, stride)| {
+        let end = stride
+            .checked_mul(rows.checked_sub(1)?)?
+            .checked_add(start)?
+            .checked_add(need)?;
+        Some((data.get(start..end)?.as_ptr(), stride))
+    });
+    match block {
+        Some((origin, stride)) => {
+            let row0 = src.row(image, 0, need, buf).as_ptr();
+            Ok(Strided {
+                row0,
+                origin,
+                stride,
+            })
+        }
+        None => Err(Clamped {
+            image,
+            src,
+            buf,
+            need,
+            inside,
+        }),
+    }
 }
 
 /// The lane sums `[sum d gx, sum d gy, sum |d| m]` (`d = T - J`, `J` the
@@ -102,20 +159,13 @@ pub(super) fn plain_sweep<const C: usize, const ABS: bool>(
     }
     let (w, tpl) = ([src.ax, src.ay], [t, gx, gy]);
     // SAFETY: AVX2 is present (`Isa::avx2`); each source gives `need` bytes
-    // per row (`strided` checked that its rows lie in the image buffer;
-    // `SourceRows::row` gives at least `need <= SRC` bytes); the template
-    // reads stay inside its rows (`C LANES <= TPL`, `n` rows each).
-    Some(match strided(image, src, n + 1, need) {
-        Some(rows) => unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) },
-        None => {
-            let rows = Clamped {
-                image,
-                src,
-                buf,
-                need,
-            };
-            unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) }
-        }
+    // per row (`source` checked that the strided rows lie in the image
+    // buffer; a borrowed row has `need` bytes; `SourceRows::row` gives at
+    // least `need <= SRC`); the template reads stay inside its rows
+    // (`C LANES <= TPL`, `n` rows each).
+    Some(match source(image, src, buf, n + 1, need) {
+        Ok(rows) => unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) },
+        Err(rows) => unsafe { sweep::<C, ABS, _>(rows, w, tpl, mask) },
     })
 }
 
@@ -135,7 +185,7 @@ unsafe fn sweep<const C: usize, const ABS: bool, S: Source>(
     let sign = _mm256_set1_ps(-0.0);
     let mut h0 = [_mm256_setzero_ps(); C];
     // SAFETY (all blocks): the caller's contract, see `plain_sweep`.
-    unsafe { horizontal::<C>(rows.row(0), vax, &mut h0) };
+    unsafe { horizontal::<C>(rows.first(), vax, &mut h0) };
     let mut m = [_mm256_setzero_ps(); C];
     for (k, v) in m.iter_mut().enumerate() {
         *v = unsafe { _mm256_loadu_ps(mask.as_ptr().add(k * LANES)) };
@@ -216,17 +266,9 @@ pub(super) fn fill<const P: usize, const C: usize>(
     // SAFETY: AVX2 is present (`Isa::avx2`); each source gives `need` bytes
     // per row (see `plain_sweep`); the row reads and writes stay inside the
     // patch and template rows (`fits`).
-    Some(match strided(image, src, n + 3, need) {
-        Some(rows) => unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) },
-        None => {
-            let rows = Clamped {
-                image,
-                src,
-                buf,
-                need,
-            };
-            unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) }
-        }
+    Some(match source(image, src, buf, n + 3, need) {
+        Ok(rows) => unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) },
+        Err(rows) => unsafe { fill_rows::<P, C, _>(rows, w, patch, tpl, mask) },
     })
 }
 
@@ -259,7 +301,7 @@ unsafe fn fill_rows<const P: usize, const C: usize, S: Source>(
     let mut h0 = [_mm256_setzero_ps(); P];
     let mut h1 = [_mm256_setzero_ps(); P];
     // SAFETY (all blocks): the caller's contract, see `fill`.
-    unsafe { horizontal::<P>(rows.row(0), vax, &mut h0) };
+    unsafe { horizontal::<P>(rows.first(), vax, &mut h0) };
     let n = t.len();
     let mut outputs = t.iter_mut().zip(gx.iter_mut()).zip(gy.iter_mut());
     // The patch ring's slots, as `Template::sample` takes them: the oldest,
@@ -375,15 +417,21 @@ fn shift2(a: __m256, b: __m256) -> __m256 {
 #[cfg(test)]
 mod tests {
     use crate::geometry::Vec2;
-    use crate::image::ImageView;
+    use crate::image::{ImageView, required_len};
     use crate::lk::isa::Isa;
-    use crate::lk::template::{Template, TemplateRows, TplRow};
-    use crate::lk::window::SourceRows;
+    use crate::lk::template::{Template, TemplateRows};
+    use crate::lk::window::{self, SourceRows};
 
     extern crate std;
+    use std::vec::Vec;
 
     const W: usize = 80;
     const H: usize = 64;
+    /// The strided view: narrower than its rows, and its buffer ends where
+    /// its last row does (so the windows at the bottom right take rows
+    /// through `SourceRows::row`, as the portable code does).
+    const SW: usize = 70;
+    const STRIDE: usize = 83;
 
     /// A seeded textured image (smooth waves with noise in the low bits).
     fn image(seed: u32) -> [u8; W * H] {
@@ -398,118 +446,202 @@ mod tests {
         px
     }
 
+    /// The packed view of `px` and a strided view of the same bytes.
+    fn views(px: &[u8; W * H]) -> [ImageView<'_>; 2] {
+        let rows = (px.len() - SW) / STRIDE + 1;
+        let len = required_len(SW, rows, STRIDE).unwrap();
+        [
+            ImageView::packed(px, W, H).unwrap(),
+            ImageView::new(&px[..len], SW, rows, STRIDE).unwrap(),
+        ]
+    }
+
+    /// Window centres inside, near and over every border of `v`, at
+    /// varied subpixel offsets.
+    fn centres(v: &ImageView<'_>) -> impl Iterator<Item = Vec2> {
+        let (w, h) = (v.width() as f32, v.height() as f32);
+        (0..60).map(move |k| {
+            let k = k as f32 / 59.0;
+            Vec2::new(
+                -2.0 + (w + 3.0) * k,
+                h + 1.5 - (h + 4.0) * k * 1.07 % (h + 4.0),
+            )
+        })
+    }
+
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|v| v.to_bits()).collect()
+    }
+
     /// The AVX2 sweep gives the portable row kernels' lane sums bit for bit
-    /// for every window size, with and without the absolute sums, at every
-    /// subpixel phase, inside the image and over its border.
+    /// for every window size, with and without the absolute sums, at varied
+    /// subpixel offsets, inside the image and over its border, packed and
+    /// strided.
     #[test]
     fn the_avx2_sweep_gives_the_portable_sums_bit_for_bit() {
         let (a, b) = (image(1), image(2));
-        let (va, vb) = (
-            ImageView::packed(&a, W, H).unwrap(),
-            ImageView::packed(&b, W, H).unwrap(),
-        );
         let avx2 = Isa::detect().avx2();
         let (mut compared, mut by_avx2, mut over_border) = (0, 0, 0);
-        for n in (3..=31).step_by(2) {
-            let mut rows = TemplateRows::<31>::zeroed();
-            let mut tpl = Template::empty(&mut rows);
-            tpl.column_order = false;
-            for k in 0..40 {
-                let k = k as f32;
-                let c = Vec2::new(-2.0 + 2.113 * k, 70.0 - 1.731 * k);
-                if tpl.fill(&va, c, n, 0.0, true).is_err() {
-                    continue;
-                }
-                for (dx, dy) in [(0.0, 0.0), (0.37, -0.61), (-1.25, 0.5), (2.999, 1.001)] {
-                    let at = Vec2::new(c.x + dx, c.y + dy);
-                    for (clamp, abs) in [(false, false), (false, true), (true, false), (true, true)]
-                    {
-                        tpl.isa = Isa::BASELINE;
-                        let portable = tpl.row_sums(&vb, at, clamp, abs);
-                        tpl.isa = Isa::detect();
-                        let fast = tpl.row_sums(&vb, at, clamp, abs);
-                        let bits = |s: [[f32; 8]; 3]| s.map(|l| l.map(f32::to_bits));
-                        assert_eq!(portable.map(bits), fast.map(bits), "n {n} at {at:?} {abs}");
-                        compared += usize::from(portable.is_some());
-                        by_avx2 +=
-                            usize::from(avx2 && tpl.avx2_sums(&vb, at, clamp, abs).is_some());
-                        let half = (n / 2) as f32;
-                        let src = SourceRows::new(&vb, at.x - half, at.y - half, n, n, false);
-                        over_border += usize::from(portable.is_some() && src.is_none());
+        for (va, vb) in views(&a).into_iter().zip(views(&b)) {
+            for n in (3..=31).step_by(2) {
+                let mut rows = TemplateRows::<31>::zeroed();
+                let mut tpl = Template::empty(&mut rows);
+                tpl.column_order = false;
+                for c in centres(&va) {
+                    if tpl.fill(&va, c, n, 0.0, true).is_err() {
+                        continue;
+                    }
+                    for (dx, dy) in [(0.0, 0.0), (0.37, -0.61), (-1.25, 0.5), (2.999, 1.001)] {
+                        let at = Vec2::new(c.x + dx, c.y + dy);
+                        for (clamp, abs) in
+                            [(false, false), (false, true), (true, false), (true, true)]
+                        {
+                            tpl.isa = Isa::BASELINE;
+                            let portable = tpl.row_sums(&vb, at, clamp, abs);
+                            tpl.isa = Isa::detect();
+                            let fast = tpl.row_sums(&vb, at, clamp, abs);
+                            let lanes = |s: [[f32; 8]; 3]| s.map(|l| bits(&l));
+                            assert_eq!(portable.map(lanes), fast.map(lanes), "n {n} at {at:?}");
+                            compared += usize::from(portable.is_some());
+                            by_avx2 +=
+                                usize::from(avx2 && tpl.avx2_sums(&vb, at, clamp, abs).is_some());
+                            let half = (n / 2) as f32;
+                            let src = SourceRows::new(&vb, at.x - half, at.y - half, n, n, false);
+                            over_border += usize::from(portable.is_some() && src.is_none());
+                        }
                     }
                 }
             }
         }
-        assert!(compared > 3000, "{compared}");
+        assert!(compared > 5000, "{compared}");
         assert!(
-            over_border > 500,
+            over_border > 1000,
             "{over_border} of {compared} over the border"
         );
         if avx2 {
             assert_eq!(by_avx2, compared);
+        } else {
+            std::eprintln!("no AVX2 on this CPU: the portable sweep was compared with itself");
         }
     }
 
-    /// The AVX2 fill gives the portable template bit for bit in the
-    /// window's lanes (intensities, gradients, `G⁻¹`) for every window
-    /// size at every subpixel phase, inside the image and over its border,
-    /// and fails where it fails.
+    /// The AVX2 fill gives the portable template bit for bit (intensities
+    /// in every lane, gradients in the window's chunks, `G⁻¹`) for every
+    /// window size at varied subpixel offsets, inside the image and over
+    /// its border, packed and strided, and fails where it fails.
     #[test]
     fn the_avx2_fill_gives_the_portable_template_bit_for_bit() {
         let a = image(3);
-        let va = ImageView::packed(&a, W, H).unwrap();
-        let (mut compared, mut over_border) = (0, 0);
-        for n in (3..=31).step_by(2) {
-            let (mut rows_a, mut rows_b) =
-                (TemplateRows::<31>::zeroed(), TemplateRows::<31>::zeroed());
-            let (mut portable, mut fast) =
-                (Template::empty(&mut rows_a), Template::empty(&mut rows_b));
-            portable.isa = Isa::BASELINE;
-            portable.column_order = false;
-            fast.column_order = false;
-            for k in 0..60 {
-                let k = k as f32;
-                let c = Vec2::new(-2.0 + 1.413 * k, 70.0 - 1.231 * k);
-                for min_eig in [0.0, 1e-3] {
-                    let want = portable.fill(&va, c, n, min_eig, true);
-                    let got = fast.fill(&va, c, n, min_eig, true);
-                    assert_eq!(want.is_ok(), got.is_ok(), "n {n} at {c:?}");
-                    if want.is_err() {
-                        continue;
-                    }
-                    for i in 0..n {
-                        for (w, g) in [
-                            (&portable.t, &fast.t),
-                            (&portable.gx, &fast.gx),
-                            (&portable.gy, &fast.gy),
-                        ] {
-                            let bits = |r: &[TplRow]| {
-                                r[i][..n]
-                                    .iter()
-                                    .map(|v| v.to_bits())
-                                    .collect::<std::vec::Vec<_>>()
-                            };
-                            assert_eq!(bits(w), bits(g), "n {n} at {c:?} row {i}");
+        let avx2 = Isa::detect().avx2();
+        let (mut compared, mut by_avx2, mut over_border) = (0, 0, 0);
+        for va in views(&a) {
+            for n in (3..=31).step_by(2) {
+                let (mut rows_a, mut rows_b) =
+                    (TemplateRows::<31>::zeroed(), TemplateRows::<31>::zeroed());
+                let (mut portable, mut fast) =
+                    (Template::empty(&mut rows_a), Template::empty(&mut rows_b));
+                portable.isa = Isa::BASELINE;
+                portable.column_order = false;
+                fast.column_order = false;
+                let width = window::chunks(n) * window::LANES;
+                for c in centres(&va) {
+                    for min_eig in [0.0, 1e-3] {
+                        let want = portable.fill(&va, c, n, min_eig, true);
+                        let got = fast.fill(&va, c, n, min_eig, true);
+                        assert_eq!(want.is_ok(), got.is_ok(), "n {n} at {c:?}");
+                        if want.is_err() {
+                            continue;
                         }
+                        for i in 0..n {
+                            let rows = |t: &Template<'_>| {
+                                [
+                                    bits(&t.t[i]),
+                                    bits(&t.gx[i][..width]),
+                                    bits(&t.gy[i][..width]),
+                                ]
+                            };
+                            assert_eq!(rows(&portable), rows(&fast), "n {n} at {c:?} row {i}");
+                        }
+                        for b in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)] {
+                            let (p, q) = (portable.solve(&b), fast.solve(&b));
+                            assert_eq!(bits(&[p.x, p.y]), bits(&[q.x, q.y]), "n {n} at {c:?}");
+                        }
+                        compared += 1;
+                        // The source `Template::fill` samples, with its frame.
+                        let half = (n / 2) as f32 + 1.0;
+                        let (x, y) = (c.x - half, c.y - half);
+                        let inside = c.x >= 0.0
+                            && c.y >= 0.0
+                            && c.x <= (va.width() - 1) as f32
+                            && c.y <= (va.height() - 1) as f32;
+                        let src = SourceRows::new(&va, x, y, n + 2, n + 2, inside).unwrap();
+                        by_avx2 += usize::from(avx2 && fast.sample_by_avx2(&va, &src).is_some());
+                        let strict = SourceRows::new(&va, x, y, n + 2, n + 2, false);
+                        over_border += usize::from(strict.is_none());
                     }
-                    for b in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)] {
-                        let (p, q) = (portable.solve(&b), fast.solve(&b));
-                        assert_eq!(
-                            [p.x.to_bits(), p.y.to_bits()],
-                            [q.x.to_bits(), q.y.to_bits()]
-                        );
-                    }
-                    compared += 1;
-                    let half = (n / 2) as f32 + 1.0;
-                    let src = SourceRows::new(&va, c.x - half, c.y - half, n + 2, n + 2, false);
-                    over_border += usize::from(src.is_none());
                 }
             }
         }
         assert!(compared > 1000, "{compared}");
         assert!(
-            over_border > 200,
+            over_border > 300,
             "{over_border} of {compared} over the border"
         );
+        if avx2 {
+            assert_eq!(by_avx2, compared);
+        } else {
+            std::eprintln!("no AVX2 on this CPU: the portable fill was compared with itself");
+        }
+    }
+
+    /// A window inside the image whose row ends at the image's right edge:
+    /// the fill's source rows run one byte past it, where the portable code
+    /// repeats the edge pixel in row 0 and reads the buffer in the others;
+    /// the AVX2 fill reads them alike, so even the masked lanes (whose
+    /// signed zeros follow those bytes) agree.
+    #[test]
+    fn the_avx2_fill_reads_past_the_right_edge_as_the_portable_fill() {
+        const EW: usize = 40;
+        const EH: usize = 30;
+        let mut px = [0u8; EW * EH];
+        for (i, p) in px.iter_mut().enumerate() {
+            let (x, y) = (i % EW, i / EW);
+            *p = match x {
+                0 => 255,
+                x if x == EW - 1 => 0,
+                _ => (180 + (x * 7 + y * 13) % 50) as u8,
+            };
+        }
+        let va = ImageView::packed(&px, EW, EH).unwrap();
+        let n = 21;
+        let width = window::chunks(n) * window::LANES;
+        let (mut rows_a, mut rows_b) = (TemplateRows::<21>::zeroed(), TemplateRows::<21>::zeroed());
+        let (mut portable, mut fast) = (Template::empty(&mut rows_a), Template::empty(&mut rows_b));
+        portable.isa = Isa::BASELINE;
+        portable.column_order = false;
+        fast.column_order = false;
+        let mut compared = 0;
+        for y in [11.25f32, 12.5, 13.75, 15.0, 16.25, 17.5, 18.75] {
+            // The patch (the window and its frame, 23 columns) starts at
+            // column 16: its source bytes end at column 39, the last.
+            let c = Vec2::new(27.9, y);
+            let want = portable.fill(&va, c, n, 0.0, false);
+            assert_eq!(want.is_ok(), fast.fill(&va, c, n, 0.0, false).is_ok());
+            if want.is_err() {
+                continue;
+            }
+            for i in 0..n {
+                let rows = |t: &Template<'_>| {
+                    [
+                        bits(&t.t[i]),
+                        bits(&t.gx[i][..width]),
+                        bits(&t.gy[i][..width]),
+                    ]
+                };
+                assert_eq!(rows(&portable), rows(&fast), "at {c:?} row {i}");
+                compared += 1;
+            }
+        }
+        assert!(compared >= 3 * n, "{compared} rows compared");
     }
 }

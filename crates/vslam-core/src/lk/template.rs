@@ -197,7 +197,11 @@ impl<'r> Template<'r> {
     /// The template and the lane sums of `G` by the AVX2 fill (`avx2`), the
     /// same bits as [`Template::sample`]; `None` on a CPU without AVX2 (and
     /// on every other target).
-    fn sample_by_avx2(&mut self, image: &ImageView<'_>, src: &SourceRows) -> Option<columns::Sums> {
+    pub(super) fn sample_by_avx2(
+        &mut self,
+        image: &ImageView<'_>,
+        src: &SourceRows,
+    ) -> Option<columns::Sums> {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
         {
             use super::avx2::fill;
@@ -319,7 +323,8 @@ impl<'r> Template<'r> {
     }
 
     /// The lane sums of [`Template::mismatch`] by the row kernels (any
-    /// window); `None` when the window is outside.
+    /// window; on a CPU with AVX2 by the AVX2 sweep, the same bits); `None`
+    /// when the window is outside.
     pub(super) fn row_sums(
         &mut self,
         image: &ImageView<'_>,
