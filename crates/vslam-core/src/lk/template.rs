@@ -357,9 +357,7 @@ impl<'r> Template<'r> {
     ) -> Option<columns::Sums> {
         use super::avx2::plain_sweep;
         let n = self.n;
-        let half = (n / 2) as f32;
-        let clamp = clamp && inside(image, c);
-        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
+        let src = self.window_rows(image, c, clamp)?;
         let tpl = [&*self.t, &*self.gx, &*self.gy].map(|rows| rows.get(..n).unwrap_or(&[]));
         let (isa, m, rows) = (self.isa, &self.mask, (image, &src, &mut self.src));
         match (window::chunks(n), with_abs) {
@@ -410,9 +408,7 @@ impl<'r> Template<'r> {
         lane: impl FnMut(usize, f32, f32, f32),
     ) -> bool {
         let n = self.n;
-        let half = (n / 2) as f32;
-        let clamp = clamp && inside(image, c);
-        let Some(src) = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp) else {
+        let Some(src) = self.window_rows(image, c, clamp) else {
             return false;
         };
         let (rows, mask) = ([&*self.t, &*self.gx, &*self.gy], &self.mask);
@@ -438,11 +434,8 @@ impl<'r> Template<'r> {
         clamp: bool,
         kernel: &K,
     ) -> Option<K::Sums> {
-        let n = self.n;
-        let half = (n / 2) as f32;
-        let clamp = clamp && inside(image, c);
-        let src = SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)?;
-        Some(match window::chunks(n) {
+        let src = self.window_rows(image, c, clamp)?;
+        Some(match window::chunks(self.n) {
             1 => self.sweep_in::<1, K>(image, &src, kernel),
             2 => self.sweep_in::<2, K>(image, &src, kernel),
             3 => self.sweep_in::<3, K>(image, &src, kernel),
@@ -477,6 +470,16 @@ impl<'r> Template<'r> {
         let n = *n;
         let tpl = [&**t, &**gx, &**gy].map(|rows| rows.get(..n).unwrap_or(&[]));
         sweep_rows::<C, K>(kernel, isa, image, src, buf, [top, bottom], tpl, mask)
+    }
+
+    /// Where the window centred on `c` reads `image`; with `clamp`, a window
+    /// over the border whose centre is inside repeats the edge pixels, else
+    /// a window outside is `None`.
+    fn window_rows(&self, image: &ImageView<'_>, c: Vec2, clamp: bool) -> Option<SourceRows> {
+        let n = self.n;
+        let half = (n / 2) as f32;
+        let clamp = clamp && inside(image, c);
+        SourceRows::new(image, c.x - half, c.y - half, n, n, clamp)
     }
 
     /// `G⁻¹ b`.
