@@ -475,6 +475,7 @@ impl<'r> Template<'r> {
     /// Where the window centred on `c` reads `image`; with `clamp`, a window
     /// over the border whose centre is inside repeats the edge pixels, else
     /// a window outside is `None`.
+    #[inline(always)]
     fn window_rows(&self, image: &ImageView<'_>, c: Vec2, clamp: bool) -> Option<SourceRows> {
         let n = self.n;
         let half = (n / 2) as f32;
