@@ -22,9 +22,11 @@
 //! Failure is a value: small error enums per operation.
 //!
 //! Feature `std` (off by default; it only adds): on x86-64 the Lucas-Kanade
-//! row kernels get AVX2 copies, picked at run time when the CPU has AVX2,
-//! with the same results bit for bit (4.83 M against 8.07 M instructions per
-//! tracking call of the `lk` bench's input, `benches/README.md`).
+//! row kernels get AVX2 copies, and the template fill and the mismatch sweep
+//! hand-written AVX2 intrinsics (`lk::avx2`), picked at run time when the CPU
+//! has AVX2, with the same results bit for bit (3.13 M against 8.07 M
+//! instructions per tracking call of the `lk` bench's input,
+//! `benches/README.md`).
 //!
 //! # Example: a homography from four matches, and time as integers
 //!
