@@ -473,6 +473,37 @@ mod tests {
         v.iter().map(|v| v.to_bits()).collect()
     }
 
+    /// A template on the baseline kernels and one on this CPU's, both on the
+    /// row kernels' side (no column kernels).
+    fn portable_and_fast<'r, const R: usize>(
+        a: &'r mut TemplateRows<R>,
+        b: &'r mut TemplateRows<R>,
+    ) -> (Template<'r>, Template<'r>) {
+        let (mut portable, mut fast) = (Template::empty(a), Template::empty(b));
+        portable.isa = Isa::BASELINE;
+        portable.column_order = false;
+        fast.column_order = false;
+        (portable, fast)
+    }
+
+    /// The two templates' rows agree bit for bit: intensities in every
+    /// lane, gradients in the window's chunks. Returns the rows compared.
+    fn assert_same_rows(portable: &Template<'_>, fast: &Template<'_>, what: &str) -> usize {
+        let n = portable.n;
+        let width = window::chunks(n) * window::LANES;
+        for i in 0..n {
+            let rows = |t: &Template<'_>| {
+                [
+                    bits(&t.t[i]),
+                    bits(&t.gx[i][..width]),
+                    bits(&t.gy[i][..width]),
+                ]
+            };
+            assert_eq!(rows(portable), rows(fast), "{what} row {i}");
+        }
+        n
+    }
+
     /// The AVX2 sweep gives the portable row kernels' lane sums bit for bit
     /// for every window size, with and without the absolute sums, at varied
     /// subpixel offsets, inside the image and over its border, packed and
@@ -538,12 +569,7 @@ mod tests {
             for n in (3..=31).step_by(2) {
                 let (mut rows_a, mut rows_b) =
                     (TemplateRows::<31>::zeroed(), TemplateRows::<31>::zeroed());
-                let (mut portable, mut fast) =
-                    (Template::empty(&mut rows_a), Template::empty(&mut rows_b));
-                portable.isa = Isa::BASELINE;
-                portable.column_order = false;
-                fast.column_order = false;
-                let width = window::chunks(n) * window::LANES;
+                let (mut portable, mut fast) = portable_and_fast(&mut rows_a, &mut rows_b);
                 for c in centres(&va) {
                     for min_eig in [0.0, 1e-3] {
                         let want = portable.fill(&va, c, n, min_eig, true);
@@ -552,16 +578,7 @@ mod tests {
                         if want.is_err() {
                             continue;
                         }
-                        for i in 0..n {
-                            let rows = |t: &Template<'_>| {
-                                [
-                                    bits(&t.t[i]),
-                                    bits(&t.gx[i][..width]),
-                                    bits(&t.gy[i][..width]),
-                                ]
-                            };
-                            assert_eq!(rows(&portable), rows(&fast), "n {n} at {c:?} row {i}");
-                        }
+                        assert_same_rows(&portable, &fast, &std::format!("n {n} at {c:?}"));
                         for b in [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)] {
                             let (p, q) = (portable.solve(&b), fast.solve(&b));
                             assert_eq!(bits(&[p.x, p.y]), bits(&[q.x, q.y]), "n {n} at {c:?}");
@@ -614,12 +631,8 @@ mod tests {
         }
         let va = ImageView::packed(&px, EW, EH).unwrap();
         let n = 21;
-        let width = window::chunks(n) * window::LANES;
         let (mut rows_a, mut rows_b) = (TemplateRows::<21>::zeroed(), TemplateRows::<21>::zeroed());
-        let (mut portable, mut fast) = (Template::empty(&mut rows_a), Template::empty(&mut rows_b));
-        portable.isa = Isa::BASELINE;
-        portable.column_order = false;
-        fast.column_order = false;
+        let (mut portable, mut fast) = portable_and_fast(&mut rows_a, &mut rows_b);
         let mut compared = 0;
         for y in [11.25f32, 12.5, 13.75, 15.0, 16.25, 17.5, 18.75] {
             // The patch (the window and its frame, 23 columns) starts at
@@ -630,17 +643,7 @@ mod tests {
             if want.is_err() {
                 continue;
             }
-            for i in 0..n {
-                let rows = |t: &Template<'_>| {
-                    [
-                        bits(&t.t[i]),
-                        bits(&t.gx[i][..width]),
-                        bits(&t.gy[i][..width]),
-                    ]
-                };
-                assert_eq!(rows(&portable), rows(&fast), "at {c:?} row {i}");
-                compared += 1;
-            }
+            compared += assert_same_rows(&portable, &fast, &std::format!("at {c:?}"));
         }
         assert!(compared >= 3 * n, "{compared} rows compared");
     }
