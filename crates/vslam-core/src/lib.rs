@@ -18,15 +18,17 @@
 //!   [`scale::ScalePipeline`]), [`adverse`] (where sensors went wrong) and
 //!   [`pose`] (trajectory composition).
 //!
-//! What it will not do: allocate, panic on data, read files or talk to a bus.
-//! Failure is a value: small error enums per operation.
+//! What it will not do: allocate (without `std`), panic on data, read files
+//! or talk to a bus. Failure is a value: small error enums per operation.
 //!
 //! Feature `std` (off by default; it only adds): on x86-64 the Lucas-Kanade
 //! row kernels get AVX2 copies, and the template fill and the mismatch sweep
 //! hand-written AVX2 intrinsics (`lk::avx2`), picked at run time when the CPU
-//! has AVX2, with the same results bit for bit (3.13 M against 8.07 M
+//! has AVX2, with the same results bit for bit (2.91 M against 8.07 M
 //! instructions per tracking call of the `lk` bench's input,
-//! `benches/README.md`).
+//! `benches/README.md`). With AVX2 a tracking call also copies the coarse
+//! pyramid levels its windows hang over, edges repeated, into heap buffers
+//! that live for the call (`lk::borders`): the one allocation `std` adds.
 //!
 //! # Example: a homography from four matches, and time as integers
 //!

@@ -8,7 +8,7 @@
 //! elsewhere (Cortex-M, no `std`) only the baseline copy exists. On AVX2 the
 //! two hottest loops, the template fill and the constant-brightness sweep,
 //! run hand-written intrinsics instead (`avx2`, a whole window per call).
-//! One tracking call of the `lk` bench's input runs 3.13 M instructions on
+//! One tracking call of the `lk` bench's input runs 2.91 M instructions on
 //! AVX2 against 8.07 M with the baseline copies (callgrind, see
 //! `benches/README.md`).
 //!

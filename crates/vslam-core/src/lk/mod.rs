@@ -43,7 +43,8 @@
 //! in fixed chunks of eight lanes (padded columns carry zero gradients), so
 //! the inner loops compile to SIMD; windows inside the image read the image
 //! rows directly, windows over a coarse level's border read edge-replicated
-//! copies through the same kernel (`window`). The template and its Scharr
+//! copies of their rows through the same kernel (`window`; on AVX2, a copy
+//! of the whole level, `borders`). The template and its Scharr
 //! gradients are built once per point and level (the patch streams through
 //! three rows); only the moving window is resampled per iteration.
 //!
@@ -52,7 +53,9 @@
 //! [`MAX_WINDOW`] rows that holds it: about 3.6 KiB with the patch and row
 //! scratch for a 7x7 window, 12.6 KiB for [`MAX_WINDOW`]), results go into
 //! caller slices, any input point (NaN, infinite, far outside) yields a
-//! status.
+//! status. (With `std` on x86-64, the AVX2 kernels also keep edge-replicated
+//! copies of the coarse levels windows hang over on the heap during a call,
+//! `borders`; without `std` nothing is allocated.)
 //!
 //! - [`sample`]: bilinear window sampling (single windows and pixels),
 //! - `window`: the row machinery of the tracker's inner loops,
@@ -64,11 +67,15 @@
 //! - `avx2`: on x86-64 with `std` and a CPU with AVX2, the template fill
 //!   and the constant-brightness sweep written with AVX2 intrinsics, a
 //!   whole window per call (the same bits as the row kernels),
+//! - `borders`: for `avx2`, edge-replicated copies (on the heap, for one
+//!   tracking call) of the coarse levels that windows hang over,
 //! - [`track`]: the per-level iteration and the [`Tracker`].
 
 mod affine;
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 mod avx2;
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+mod borders;
 mod columns;
 mod config;
 mod gain;

@@ -79,6 +79,10 @@ pub(super) struct Template<'r> {
     /// zeroes buffers.
     src: [u8; SRC],
     rows: [Row; 2],
+    /// Edge-replicated copies of the images the AVX2 kernels' windows hang
+    /// over (`borders`).
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    pub(super) borders: super::borders::Borders,
 }
 
 /// Why a template could not be built.
@@ -112,6 +116,8 @@ impl<'r> Template<'r> {
             patch: [[0.0; ROW]; 3],
             src: [0; SRC],
             rows: [[0.0; ROW]; 2],
+            #[cfg(all(feature = "std", target_arch = "x86_64"))]
+            borders: super::borders::Borders::new(),
         }
     }
 
@@ -207,7 +213,7 @@ impl<'r> Template<'r> {
             use super::avx2::fill;
             let n = self.n;
             let (isa, patch, mask) = (self.isa, &mut self.patch, &self.mask);
-            let rows = (image, src, &mut self.src);
+            let rows = (image, src, &mut self.src, &mut self.borders);
             let out = [&mut *self.t, &mut *self.gx, &mut *self.gy]
                 .map(|rows| rows.get_mut(..n).unwrap_or(&mut []));
             match (window::chunks(n + 2), window::chunks(n)) {
@@ -359,7 +365,8 @@ impl<'r> Template<'r> {
         let n = self.n;
         let src = self.window_rows(image, c, clamp)?;
         let tpl = [&*self.t, &*self.gx, &*self.gy].map(|rows| rows.get(..n).unwrap_or(&[]));
-        let (isa, m, rows) = (self.isa, &self.mask, (image, &src, &mut self.src));
+        let (isa, m) = (self.isa, &self.mask);
+        let rows = (image, &src, &mut self.src, &mut self.borders);
         match (window::chunks(n), with_abs) {
             (1, false) => plain_sweep::<1, false>(isa, rows, tpl, m),
             (1, true) => plain_sweep::<1, true>(isa, rows, tpl, m),

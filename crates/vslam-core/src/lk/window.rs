@@ -87,6 +87,13 @@ impl SourceRows {
         })
     }
 
+    /// The column and row of the top-left source pixel.
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[inline(always)]
+    pub fn origin(&self) -> (isize, isize) {
+        (self.x0, self.y0)
+    }
+
     /// For a window inside the image: the image buffer, the index of its
     /// first source byte and the stride (source row `i` starts `i` strides on).
     #[inline(always)]
