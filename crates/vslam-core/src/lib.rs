@@ -28,7 +28,8 @@
 //! instructions per tracking call of the `lk` bench's input,
 //! `benches/README.md`). With AVX2 a tracking call also copies the coarse
 //! pyramid levels its windows hang over, edges repeated, into heap buffers
-//! that live for the call (`lk::borders`): the one allocation `std` adds.
+//! that live for the call (`lk::borders`, with their table): the only
+//! allocations `std` adds.
 //!
 //! # Example: a homography from four matches, and time as integers
 //!

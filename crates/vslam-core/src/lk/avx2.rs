@@ -37,6 +37,8 @@ use core::arch::x86_64::{
     _mm256_setr_epi32, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps,
 };
 
+use core::marker::PhantomData;
+
 use crate::image::ImageView;
 
 use super::borders::Borders;
@@ -44,12 +46,14 @@ use super::isa::Isa;
 use super::template::{TPL, TplRow};
 use super::window::{self, LANES, ROW, Row, SRC, SourceRows};
 
-/// Where the source rows of a window are, read as the portable code reads
-/// them (so that even the bytes past the window's last column agree): row
-/// 0 through [`SourceRows::row`], the others straight from the image buffer
-/// when the window is inside and the row lies in it, else through
-/// [`SourceRows::row`]. Each call gives a pointer to at least `need` readable
-/// bytes, valid until the next call.
+/// Where the source rows of a window are, holding the bytes the portable
+/// code reads (so that even the bytes past the window's last column agree):
+/// for a window inside the image, row 0 through [`SourceRows::row`] and the
+/// others straight from the image buffer where they lie in it; for a window
+/// over the border, every row from the image's edge-replicated copy
+/// (`borders`) once it is made; else each row through [`SourceRows::row`].
+/// Each call gives a pointer to at least `need` readable bytes, valid until
+/// the next call.
 trait Source {
     /// Row 0.
     fn first(&mut self) -> *const u8;
@@ -57,17 +61,22 @@ trait Source {
     fn row(&mut self, i: usize) -> *const u8;
 }
 
-/// A window inside the image whose rows `1..rows` all lie in the image
-/// buffer: row `i` is `i` strides on from row 0's place there.
-struct Strided {
-    /// Row 0 as [`SourceRows::row`] gives it.
+/// A window whose rows `1..rows` lie one stride apart in a buffer
+/// borrowed for `'r`: the image buffer (a window inside the image) or the
+/// image's edge-replicated copy (a window over its border): row `i` is `i`
+/// strides on from row 0's place there.
+struct Strided<'r> {
+    /// Row 0 as [`SourceRows::row`] gives it (for a window over the
+    /// border, its place in the copy, which holds those bytes).
     row0: *const u8,
-    /// Row 0's place in the image buffer.
+    /// Row 0's place in the buffer.
     origin: *const u8,
     stride: usize,
+    /// The buffers the pointers point into stay borrowed.
+    rows: PhantomData<&'r [u8]>,
 }
 
-impl Source for Strided {
+impl Source for Strided<'_> {
     #[inline(always)]
     fn first(&mut self) -> *const u8 {
         self.row0
@@ -121,7 +130,7 @@ fn source<'r, 'i>(
     n: usize,
     rows: usize,
     need: usize,
-) -> Result<Strided, Clamped<'r, 'i>> {
+) -> Result<Strided<'r>, Clamped<'r, 'i>> {
     let inside = src.inside_rows(image);
     let block = inside.and_then(|(data, start, stride)| {
         let end = stride
@@ -136,6 +145,7 @@ fn source<'r, 'i>(
             row0,
             origin,
             stride,
+            rows: PhantomData,
         });
     }
     if inside.is_none() {
@@ -147,6 +157,7 @@ fn source<'r, 'i>(
                 row0: origin,
                 origin,
                 stride,
+                rows: PhantomData,
             });
         }
     }

@@ -96,7 +96,11 @@ impl Entry {
         let rows = h.checked_add(margin.checked_mul(2)?)?;
         let data = &mut self.data;
         data.clear();
-        data.reserve(stride.checked_mul(rows)?);
+        // Out of memory: no copy (the caller copies the rows one by one).
+        data.try_reserve(stride.checked_mul(rows)?).ok()?;
+        // Row 0 with its margins, then its copies above it (the same bytes,
+        // so their order does not matter), the other rows, the last one's
+        // copies below.
         for y in 0..h {
             let row = image.row(y)?;
             let (first, last) = (*row.first()?, *row.last()?);
@@ -119,6 +123,9 @@ impl Entry {
 }
 
 /// The copies of one tracking call, made on demand (see the module doc).
+/// An image is known by its buffer's address and length and its geometry,
+/// which is only sound while the buffers stay borrowed: a [`Borders`] must
+/// not outlive the tracking call (the template it belongs to does not).
 #[derive(Debug)]
 pub(super) struct Borders {
     entries: Vec<Entry>,
@@ -140,15 +147,17 @@ impl Borders {
     }
 
     /// The margin that serves every window of side `n` whose centre is
-    /// inside the image, with rows of at most `patch_bytes` bytes (the
-    /// template's patch, the window and its one-pixel frame, is the widest
-    /// read): a window reaches at most `n / 2 + 1` pixels left of, above and
-    /// below the image (the patch's frame), and its rows end at most
-    /// `patch_bytes - n / 2 - 1` pixels right of it (a moving window's rows,
-    /// which start a pixel farther right than the patch's).
+    /// inside the image, read as rows of at most `patch_bytes` bytes (the
+    /// template's patch, the window with its one-pixel frame, is the widest
+    /// read): a window's rows end at most `patch_bytes - n / 2 - 1` pixels
+    /// right of the image (a moving window's rows, which start a pixel
+    /// farther right than the patch's); it reaches at most `n / 2 + 1`
+    /// pixels left of and above the image and `n / 2 + 2` below it (the
+    /// patch's frame and the bilinear neighbour row), never more than on the
+    /// right (`patch_bytes >= n + 2`).
     pub(super) fn margin(n: usize, patch_bytes: usize) -> usize {
         let half = n / 2;
-        (half + 1).max(patch_bytes.saturating_sub(half + 1))
+        (half + 2).max(patch_bytes.saturating_sub(half + 1))
     }
 
     /// Where the `rows` rows of `need` bytes from column `x0`, row `y0` of
@@ -169,6 +178,7 @@ impl Borders {
         let at = match self.entries.iter().position(|e| e.key == key) {
             Some(at) => at,
             None if self.entries.len() < MAX_IMAGES => {
+                self.entries.try_reserve(1).ok()?;
                 self.entries.push(Entry {
                     key,
                     windows: 0,
@@ -283,7 +293,8 @@ mod tests {
     fn an_image_is_copied_after_the_set_number_of_windows_and_for_a_wider_margin() {
         let px = picture();
         let image = ImageView::packed(&px, W, H).unwrap();
-        let strided = ImageView::new(&px[..W * (H - 1)], W - 2, H - 1, W).unwrap();
+        // The same bytes (address and length) seen with another geometry.
+        let strided = ImageView::new(&px, W - 2, H - 1, W).unwrap();
         let mut borders = Borders::new();
         for _ in 1..COPY_AFTER {
             assert!(read(&mut borders, &image, 2, (-1, -1), 2, 3).is_none());
@@ -310,11 +321,6 @@ mod tests {
             let image = ImageView::packed(&px[k..], 8, 8).unwrap();
             let got = read(&mut borders, &image, 2, (-1, -1), 2, 3);
             assert_eq!(got.is_some(), k < MAX_IMAGES, "image {k}");
-        }
-        // A view with no rows gives nothing.
-        let empty = ImageView::packed(&px, 0, 0);
-        if let Ok(empty) = empty {
-            assert!(read(&mut borders, &empty, 2, (0, 0), 1, 1).is_none());
         }
     }
 }

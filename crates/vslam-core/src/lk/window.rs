@@ -16,7 +16,9 @@
 //! of a coarse level (allowed there, as OpenCV's padded pyramids allow) gets
 //! its rows from [`SourceRows::row`] with the edge pixels repeated
 //! (`BORDER_REPLICATE`), which for bilinear sampling equals clamping each
-//! sample coordinate into the image. Both run the same arithmetic.
+//! sample coordinate into the image (the AVX2 kernels read the same bytes
+//! from an edge-replicated copy of the level, `borders`). Both run the same
+//! arithmetic.
 
 use crate::image::ImageView;
 
